@@ -1,0 +1,46 @@
+"""Typed errors. Every failure a user can cause raises a subclass of :class:`PreviewctlError`
+whose message names the bad value and, where there is a finite set, the valid choices."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+
+class PreviewctlError(Exception):
+    """Base class of every error previewctl raises on purpose."""
+
+
+class RobotLoadError(PreviewctlError):
+    """A robot source could not be loaded (missing file, malformed URDF, missing mesh, ...)."""
+
+
+class UnknownNameError(PreviewctlError, KeyError):
+    """A robot, frame, joint, link or option name that does not exist."""
+
+    def __init__(self, kind: str, name: object, valid: Iterable[str]) -> None:
+        self.kind, self.name, self.valid = kind, name, sorted(valid)
+        shown = ", ".join(self.valid[:60]) + (", ..." if len(self.valid) > 60 else "")
+        super().__init__(f"unknown {kind} {name!r}; valid: {shown}")
+
+    def __str__(self) -> str:  # KeyError would otherwise quote the whole message
+        return str(self.args[0])
+
+
+class ConfigurationError(PreviewctlError, ValueError):
+    """A joint configuration (or batch) of the wrong shape, or with non-finite entries."""
+
+
+class SceneError(PreviewctlError, ValueError):
+    """An obstacle or scene description that cannot be built."""
+
+
+class ScenarioError(PreviewctlError, ValueError):
+    """A scenario file with a bad key, type or value."""
+
+
+class TrajectoryError(PreviewctlError, ValueError):
+    """A hand path that cannot be built (too few waypoints, non-positive duration, ...)."""
+
+
+class UnreachableTargetError(PreviewctlError, ValueError):
+    """A hand target that no configuration of the arm reaches."""

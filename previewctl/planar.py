@@ -1,0 +1,108 @@
+"""Closed-form, fully vectorised kinematics and AMSI for planar arms of revolute z joints.
+
+With ``theta_j = q_1 + ... + q_j`` and joint origins ``o_j``, a point ``r`` downstream of joint ``j``
+has Jacobian column ``e_z x (r - o_j)``. The avoidance Gram matrix of control point ``i`` is
+
+    G_i = M_i M_i^T = J_i N J_i^T = J_i J_i^T - (J_i J_n^T) (J_n J_n^T)^+ (J_n J_i^T),
+
+a 2x2 matrix per configuration, so ``sigma_1 sigma_2 = sqrt(det G_i)`` and
+``sigma_1 = sqrt(lambda_max(G_i))`` need no SVD. Every quantity is an elementwise array operation
+over the batch; this is what makes ~10^6 configurations per second possible.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.avoidance import IndexParams, amsi_from_volumes, unit_ball_volume
+from previewctl.robot import PlanarChain
+
+Array = NDArray[np.float64]
+
+
+def joint_origins(chain: PlanarChain, Q: Array) -> tuple[Array, Array]:
+    """Joint origins and the tip for a batch.
+
+    Args:
+        chain: the planar chain.
+        Q: ``(B, n)`` joint angles [rad].
+
+    Returns:
+        ``points`` ``(B, n + 1, 2)`` [m] (joint origins, then the tip) and the absolute link
+        angles ``theta`` ``(B, n)`` [rad].
+    """
+    theta = np.cumsum(Q, axis=1)
+    cos, sin = np.cos(theta), np.sin(theta)
+    n = Q.shape[1]
+    points = np.empty((Q.shape[0], n + 1, 2))
+    points[:, 0] = chain.offsets[0]
+    for k in range(1, n + 1):
+        dx, dy = chain.offsets[k] if k < n else chain.tip_offset
+        c, s = cos[:, k - 1], sin[:, k - 1]
+        points[:, k, 0] = points[:, k - 1, 0] + c * dx - s * dy
+        points[:, k, 1] = points[:, k - 1, 1] + s * dx + c * dy
+    return points, theta
+
+
+def jacobian(points: Array, index: int) -> tuple[Array, Array]:
+    """Rows ``(Jx, Jy)`` ``(B, n)`` of the planar Jacobian of ``points[:, index]``."""
+    n = points.shape[1] - 1
+    rel = points[:, index, None, :] - points[:, :n, :]
+    live = np.arange(n) < index
+    return -rel[..., 1] * live, rel[..., 0] * live
+
+
+def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: IndexParams) -> tuple[Array, Array]:
+    """Volumes ``(B, k)`` [m^p_i] and AMSI ``(B,)`` from the joint origins.
+
+    The task pseudo-inverse uses the same relative tolerance as the general path: an eigenvalue of
+    ``J_n J_n^T`` below ``rank_tolerance^2 * lambda_max`` counts as zero.
+    """
+    n = points.shape[1] - 1
+    jx, jy = jacobian(points, n)
+    a, b, c = (jx * jx).sum(1), (jx * jy).sum(1), (jy * jy).sum(1)
+    lam_max, lam_min = _eig2(a, b, c)
+    full = lam_min > params.rank_tolerance**2 * lam_max
+    det = np.where(full, a * c - b * b, 1.0)
+    inv_lmax2 = np.where(lam_max > 0, 1.0 / np.where(lam_max > 0, lam_max, 1.0) ** 2, 0.0)
+    # (J J^T)^+ : the inverse when full rank, A / lambda_max^2 when rank one.
+    pa = np.where(full, c / det, a * inv_lmax2)
+    pb = np.where(full, -b / det, b * inv_lmax2)
+    pc = np.where(full, a / det, c * inv_lmax2)
+    volumes = np.empty((points.shape[0], len(chain.control_joints)))
+    for i, joint in enumerate(chain.control_joints):
+        kx, ky = jacobian(points, joint)
+        # P = J_i J_n^T, G = J_i J_i^T - P A^+ P^T
+        p11, p12 = (kx * jx).sum(1), (kx * jy).sum(1)
+        p21, p22 = (ky * jx).sum(1), (ky * jy).sum(1)
+        g11 = (kx * kx).sum(1) - (p11 * (pa * p11 + pb * p12) + p12 * (pb * p11 + pc * p12))
+        g12 = (kx * ky).sum(1) - (p11 * (pa * p21 + pb * p22) + p12 * (pb * p21 + pc * p22))
+        g22 = (ky * ky).sum(1) - (p21 * (pa * p21 + pb * p22) + p22 * (pb * p21 + pc * p22))
+        if ranks[i] == 2:
+            volumes[:, i] = unit_ball_volume(2) * np.sqrt(np.maximum(g11 * g22 - g12 * g12, 0.0))
+        elif ranks[i] == 1:
+            volumes[:, i] = unit_ball_volume(1) * np.sqrt(np.maximum(_eig2(g11, g12, g22)[0], 0.0))
+        else:
+            volumes[:, i] = 0.0
+    return volumes, amsi_from_volumes(volumes, ranks, params)
+
+
+def _eig2(a: Array, b: Array, c: Array) -> tuple[Array, Array]:
+    """Eigenvalues (max, min) of the symmetric 2x2 matrices ``[[a, b], [b, c]]``."""
+    half_trace = 0.5 * (a + c)
+    root = np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    return half_trace + root, half_trace - root
+
+
+def link_segments(chain: PlanarChain, points: Array, theta: Array) -> tuple[Array, Array]:
+    """End points ``a``, ``b`` ``(B, L, 3)`` [m] of the guarded capsules' axes (z = 0)."""
+    B, L = points.shape[0], len(chain.link_joints)
+    ends = np.zeros((2, B, L, 3))
+    for slot, joint in enumerate(chain.link_joints):
+        c, s = np.cos(theta[:, joint]), np.sin(theta[:, joint])
+        for e in range(2):
+            lx, ly = chain.link_segments[slot, e]
+            ends[e, :, slot, 0] = points[:, joint, 0] + c * lx - s * ly
+            ends[e, :, slot, 1] = points[:, joint, 1] + s * lx + c * ly
+    return ends[0], ends[1]
