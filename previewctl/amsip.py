@@ -24,7 +24,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl import planar, planar_distance
-from previewctl.avoidance import AvoidanceResult, IndexParams, avoidance_from_kinematics, kinematics
+from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics
 from previewctl.errors import ConfigurationError
 from previewctl.robot import Robot
 from previewctl.scene import Box, Capsule, Clearance, Cylinder, Halfspace, Obstacle, Scene, Sphere
@@ -164,19 +164,18 @@ class Evaluator:
         Q, _ = self.robot.check_configurations(q)
         if self.uses_planar_path(t):
             return self._planar(Q, t)
-        return self.general(Q, t)[0]
+        return self._general(Q, t)
 
-    def general(self, Q: Array, t: float = 0.0) -> tuple[Evaluation, AvoidanceResult]:
-        """The general path, also returning the full avoidance result (``Q`` already validated)."""
+    def _general(self, Q: Array, t: float) -> Evaluation:
         self.clearance.set_time(t)
-        distances = np.empty((Q.shape[0], len(self.robot.guarded_links)))
+        pairs = np.empty((Q.shape[0], len(self.clearance.pair_links)))
 
         def fill(b: int, data: pin.Data) -> None:
-            distances[b] = self.clearance.link_distances(data)
+            pairs[b] = self.clearance.pair_distances(data)
 
-        kin = kinematics(self.robot, Q, self.data, fill)
-        result = avoidance_from_kinematics(self.robot, kin, self.index)
-        return self._finish(result.amsi, distances, kin.tip_position), result
+        kin = kinematics(self.robot, Q, self.data, fill if len(self.clearance.pair_links) else None)
+        distances = self.clearance.per_link(pairs)
+        return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 
     def _planar(self, Q: Array, t: float, chunk: int = 32768) -> Evaluation:
         parts = [self._planar_chunk(Q[s : s + chunk], t) for s in range(0, Q.shape[0], chunk)]
@@ -194,7 +193,7 @@ class Evaluator:
             for slot, link in enumerate(chain.link_index):
                 np.minimum(distances[:, link], capsule_d[:, slot], out=distances[:, link])
         tip = np.zeros((Q.shape[0], 3))
-        tip[:, :2] = points[:, -1]
+        tip[:, :2] = points[:, -1].T
         return self._finish(amsi, distances, tip)
 
     def _finish(self, amsi: Array, distances: Array, tip: Array) -> Evaluation:

@@ -105,22 +105,23 @@ def kinematics(
     """
     model = robot.model
     data = model.createData() if data is None else data
-    rows, point_rows = list(robot.task_rows), list(robot.point_rows)
+    rows, point_rows = robot.task_rows, robot.point_rows
     tip_id, point_ids = robot.tip_frame_id, robot.control_frame_ids
     B, k = Q.shape[0], len(point_ids)
     tip_position, tip_rotation = np.empty((B, 3)), np.empty((B, 3, 3))
-    J_task = np.empty((B, len(rows), robot.nv))
+    J_task = np.empty((B, rows.stop - rows.start, robot.nv))
     point_positions = np.empty((B, k, 3))
-    J_points = np.empty((B, k, len(point_rows), robot.nv))
+    J_points = np.empty((B, k, point_rows.stop - point_rows.start, robot.nv))
     frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    placements = data.oMf  # held once: each attribute lookup through the bindings costs microseconds
     for b in range(B):
         pin.computeJointJacobians(model, data, Q[b])
         pin.updateFramePlacements(model, data)
-        tip = data.oMf[tip_id]
+        tip = placements[tip_id]
         tip_position[b], tip_rotation[b] = tip.translation, tip.rotation
         J_task[b] = pin.getFrameJacobian(model, data, tip_id, frame)[rows]
         for i, fid in enumerate(point_ids):
-            point_positions[b, i] = data.oMf[fid].translation
+            point_positions[b, i] = placements[fid].translation
             J_points[b, i] = pin.getFrameJacobian(model, data, fid, frame)[point_rows]
         if after_each is not None:
             after_each(b, data)
@@ -157,9 +158,40 @@ class AvoidanceResult:
 
 
 def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
-    """``N = I - J^+ J`` for ``J`` of shape ``(..., m, n)``; returns ``(..., n, n)``."""
+    """``N = I - J^+ J`` for ``J`` of shape ``(..., m, n)``; returns ``(..., n, n)``.
+
+    ``J^+ = J^T (J J^T)^+`` with ``(J J^T)^+`` from a symmetric eigendecomposition (an m x m problem
+    instead of an SVD of J): eigenvalues below ``rank_tolerance^2 * lambda_max`` -- singular values
+    of J below ``rank_tolerance * sigma_max`` -- count as zero.
+    """
     n = J.shape[-1]
-    return np.eye(n) - np.linalg.pinv(J, rtol=rank_tolerance) @ J
+    JT = np.swapaxes(J, -1, -2)
+    lam, vec = np.linalg.eigh(J @ JT)
+    keep = lam > rank_tolerance**2 * lam[..., -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)
+    gram_pinv = (vec * inv[..., None, :]) @ np.swapaxes(vec, -1, -2)
+    return np.eye(n) - JT @ gram_pinv @ J
+
+
+def elementary_symmetric(G: Array, p: int) -> Array:
+    """Sum of the principal ``p x p`` minors of symmetric ``G`` ``(..., d, d)`` (d <= 3).
+
+    For ``G = M M^T`` with ``rank M <= p`` this is ``(sigma_1 ... sigma_p)^2`` exactly: the product of
+    the ``p`` leading squared singular values, in closed form.
+    """
+    d = G.shape[-1]
+    if p == 1:
+        return np.trace(G, axis1=-2, axis2=-1)
+    if p == d:
+        return np.linalg.det(G)
+    if p == 2 and d == 3:
+        g = G
+        return (
+            g[..., 0, 0] * g[..., 1, 1] - g[..., 0, 1] ** 2
+            + g[..., 0, 0] * g[..., 2, 2] - g[..., 0, 2] ** 2
+            + g[..., 1, 1] * g[..., 2, 2] - g[..., 1, 2] ** 2
+        )
+    raise ValueError(f"elementary_symmetric supports d <= 3 and 1 <= p <= d, got d={d}, p={p}")
 
 
 def volumes_from_singular_values(singular_values: Array, ranks: tuple[int, ...] | NDArray[np.int_]) -> Array:
@@ -175,6 +207,18 @@ def amsi_from_volumes(volumes: Array, ranks: tuple[int, ...] | NDArray[np.int_],
     """``E = sum_i a_i V_i / L_ref^p_i`` for ``volumes`` of shape ``(..., k)``."""
     scale = params.weight_vector(volumes.shape[-1]) / params.length_unit ** np.asarray(ranks, dtype=float)
     return np.asarray(volumes @ scale)
+
+
+def amsi_from_kinematics(robot: Robot, kin: Kinematics, params: IndexParams) -> Array:
+    """AMSI ``(B,)`` without an SVD: ``V_i = c_p sqrt(e_p(M_i M_i^T))`` with the structural ``p``."""
+    N = null_space_projector(kin.J_task, params.rank_tolerance)
+    M = kin.J_points @ N[:, None]
+    G = M @ np.swapaxes(M, -1, -2)
+    volumes = np.zeros(G.shape[:2])
+    for i, p in enumerate(robot.structural_ranks):
+        if p > 0:
+            volumes[:, i] = unit_ball_volume(p) * np.sqrt(np.maximum(elementary_symmetric(G[:, i], p), 0.0))
+    return amsi_from_volumes(volumes, robot.structural_ranks, params)
 
 
 def avoidance_from_kinematics(

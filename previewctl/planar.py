@@ -29,39 +29,42 @@ def joint_origins(chain: PlanarChain, Q: Array) -> tuple[Array, Array]:
         Q: ``(B, n)`` joint angles [rad].
 
     Returns:
-        ``points`` ``(B, n + 1, 2)`` [m] (joint origins, then the tip) and the absolute link
-        angles ``theta`` ``(B, n)`` [rad].
+        ``points`` ``(2, n + 1, B)`` [m] (x then y; joint origins, then the tip) and the absolute
+        link angles ``theta`` ``(n, B)`` [rad]. Joint-major layout keeps every per-joint slice
+        contiguous, so the arithmetic below is elementwise on ``(B,)`` arrays.
     """
-    theta = np.cumsum(Q, axis=1)
+    theta = np.cumsum(Q.T, axis=0)
     cos, sin = np.cos(theta), np.sin(theta)
     n = Q.shape[1]
-    points = np.empty((Q.shape[0], n + 1, 2))
-    points[:, 0] = chain.offsets[0]
+    points = np.empty((2, n + 1, Q.shape[0]))
+    points[0, 0], points[1, 0] = chain.offsets[0]
     for k in range(1, n + 1):
         dx, dy = chain.offsets[k] if k < n else chain.tip_offset
-        c, s = cos[:, k - 1], sin[:, k - 1]
-        points[:, k, 0] = points[:, k - 1, 0] + c * dx - s * dy
-        points[:, k, 1] = points[:, k - 1, 1] + s * dx + c * dy
+        c, s = cos[k - 1], sin[k - 1]
+        points[0, k] = points[0, k - 1] + c * dx - s * dy
+        points[1, k] = points[1, k - 1] + s * dx + c * dy
     return points, theta
 
 
 def jacobian(points: Array, index: int) -> tuple[Array, Array]:
-    """Rows ``(Jx, Jy)`` ``(B, n)`` of the planar Jacobian of ``points[:, index]``."""
-    n = points.shape[1] - 1
-    rel = points[:, index, None, :] - points[:, :n, :]
-    live = np.arange(n) < index
-    return -rel[..., 1] * live, rel[..., 0] * live
+    """Rows ``(Jx, Jy)`` ``(index, B)`` of the planar Jacobian of point ``index``: its non-zero columns.
+
+    Column ``j < index`` is ``e_z x (r - o_j)``; the columns of joints downstream of the point are 0
+    and are left out.
+    """
+    x, y = points[0], points[1]
+    return y[:index] - y[index], x[index] - x[:index]
 
 
 def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: IndexParams) -> tuple[Array, Array]:
-    """Volumes ``(B, k)`` [m^p_i] and AMSI ``(B,)`` from the joint origins.
+    """Volumes ``(B, k)`` [m^p_i] and AMSI ``(B,)`` from the joint origins ``(2, n + 1, B)``.
 
     The task pseudo-inverse uses the same relative tolerance as the general path: an eigenvalue of
     ``J_n J_n^T`` below ``rank_tolerance^2 * lambda_max`` counts as zero.
     """
     n = points.shape[1] - 1
     jx, jy = jacobian(points, n)
-    a, b, c = (jx * jx).sum(1), (jx * jy).sum(1), (jy * jy).sum(1)
+    a, b, c = _dot(jx, jx), _dot(jx, jy), _dot(jy, jy)
     lam_max, lam_min = _eig2(a, b, c)
     full = lam_min > params.rank_tolerance**2 * lam_max
     det = np.where(full, a * c - b * b, 1.0)
@@ -70,15 +73,15 @@ def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: Inde
     pa = np.where(full, c / det, a * inv_lmax2)
     pb = np.where(full, -b / det, b * inv_lmax2)
     pc = np.where(full, a / det, c * inv_lmax2)
-    volumes = np.empty((points.shape[0], len(chain.control_joints)))
+    volumes = np.empty((points.shape[2], len(chain.control_joints)))
     for i, joint in enumerate(chain.control_joints):
         kx, ky = jacobian(points, joint)
-        # P = J_i J_n^T, G = J_i J_i^T - P A^+ P^T
-        p11, p12 = (kx * jx).sum(1), (kx * jy).sum(1)
-        p21, p22 = (ky * jx).sum(1), (ky * jy).sum(1)
-        g11 = (kx * kx).sum(1) - (p11 * (pa * p11 + pb * p12) + p12 * (pb * p11 + pc * p12))
-        g12 = (kx * ky).sum(1) - (p11 * (pa * p21 + pb * p22) + p12 * (pb * p21 + pc * p22))
-        g22 = (ky * ky).sum(1) - (p21 * (pa * p21 + pb * p22) + p22 * (pb * p21 + pc * p22))
+        # P = J_i J_n^T, G = J_i J_i^T - P A^+ P^T (only the point's own columns are non-zero)
+        p11, p12 = _dot(kx, jx[:joint]), _dot(kx, jy[:joint])
+        p21, p22 = _dot(ky, jx[:joint]), _dot(ky, jy[:joint])
+        g11 = _dot(kx, kx) - (p11 * (pa * p11 + pb * p12) + p12 * (pb * p11 + pc * p12))
+        g12 = _dot(kx, ky) - (p11 * (pa * p21 + pb * p22) + p12 * (pb * p21 + pc * p22))
+        g22 = _dot(ky, ky) - (p21 * (pa * p21 + pb * p22) + p22 * (pb * p21 + pc * p22))
         if ranks[i] == 2:
             volumes[:, i] = unit_ball_volume(2) * np.sqrt(np.maximum(g11 * g22 - g12 * g12, 0.0))
         elif ranks[i] == 1:
@@ -86,6 +89,14 @@ def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: Inde
         else:
             volumes[:, i] = 0.0
     return volumes, amsi_from_volumes(volumes, ranks, params)
+
+
+def _dot(u: Array, v: Array) -> Array:
+    """Column-wise dot product of two ``(j, B)`` arrays: a sum of ``j`` contiguous products."""
+    out = u[0] * v[0]
+    for row in range(1, len(u)):
+        out += u[row] * v[row]
+    return out
 
 
 def _eig2(a: Array, b: Array, c: Array) -> tuple[Array, Array]:
@@ -97,12 +108,12 @@ def _eig2(a: Array, b: Array, c: Array) -> tuple[Array, Array]:
 
 def link_segments(chain: PlanarChain, points: Array, theta: Array) -> tuple[Array, Array]:
     """End points ``a``, ``b`` ``(B, L, 3)`` [m] of the guarded capsules' axes (z = 0)."""
-    B, L = points.shape[0], len(chain.link_joints)
+    B, L = points.shape[2], len(chain.link_joints)
     ends = np.zeros((2, B, L, 3))
     for slot, joint in enumerate(chain.link_joints):
-        c, s = np.cos(theta[:, joint]), np.sin(theta[:, joint])
+        c, s = np.cos(theta[joint]), np.sin(theta[joint])
         for e in range(2):
             lx, ly = chain.link_segments[slot, e]
-            ends[e, :, slot, 0] = points[:, joint, 0] + c * lx - s * ly
-            ends[e, :, slot, 1] = points[:, joint, 1] + s * lx + c * ly
+            ends[e, :, slot, 0] = points[0, joint] + c * lx - s * ly
+            ends[e, :, slot, 1] = points[1, joint] + s * lx + c * ly
     return ends[0], ends[1]

@@ -39,7 +39,7 @@ from previewctl.errors import ConfigurationError, PreviewctlError, RobotLoadErro
 
 Task = Literal["planar", "position", "pose"]
 Geometry = Literal["convex", "mesh"]
-TASK_ROWS: dict[str, tuple[int, ...]] = {"planar": (0, 1), "position": (0, 1, 2), "pose": (0, 1, 2, 3, 4, 5)}
+TASK_ROWS: dict[str, slice] = {"planar": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
 _TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
 
 
@@ -124,12 +124,12 @@ class Robot:
         return tuple(int(self.model.getFrameId(n)) for n in self.control_points)
 
     @property
-    def task_rows(self) -> tuple[int, ...]:
+    def task_rows(self) -> slice:
         """Rows of the 6-D frame Jacobian that make the task Jacobian ``J_n``."""
         return TASK_ROWS[self.task]
 
     @property
-    def point_rows(self) -> tuple[int, ...]:
+    def point_rows(self) -> slice:
         """Rows of the frame Jacobian that make a control-point Jacobian ``J_i``."""
         return TASK_ROWS["planar"] if self.task == "planar" else TASK_ROWS["position"]
 
@@ -427,7 +427,7 @@ def _chain_joints_to(model: pin.Model, frame_id: int) -> list[int]:
 
 
 def _control_points(
-    model: pin.Model, tip_frame: str, requested: Sequence[str] | None, rows: tuple[int, ...]
+    model: pin.Model, tip_frame: str, requested: Sequence[str] | None, rows: slice
 ) -> tuple[str, ...]:
     """Joint names whose origins serve as control points (validated or defaulted)."""
     chain = _chain_joints_to(model, int(model.getFrameId(tip_frame)))
@@ -445,7 +445,7 @@ def _control_points(
         pin.forwardKinematics(model, data, q)
         pin.updateFramePlacements(model, data)
         tip_position = data.oMf[model.getFrameId(tip_frame)].translation
-        tracks.append([data.oMi[j].translation[list(rows)] for j in chain] + [tip_position[list(rows)]])
+        tracks.append([np.array(data.oMi[j].translation[rows]) for j in chain] + [np.array(tip_position[rows])])
     positions = np.array(tracks)  # (S, len(chain)+1, d)
     chosen: list[str] = []
     kept: list[int] = []

@@ -312,6 +312,7 @@ class Clearance:
         self.pair_links = np.array(pair_links, dtype=int)
         self.pair_obstacles = np.array(pair_obstacles, dtype=int)
         self.data = self.geometry.createData()
+        self._results = self.data.distanceResults  # held once: lookups through the bindings are slow
         self._time = 0.0
 
     def set_time(self, t: float) -> None:
@@ -324,11 +325,14 @@ class Clearance:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``."""
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
-        return np.fromiter((r.min_distance for r in self.data.distanceResults), float, len(self.pair_links))
+        results = self._results
+        return np.array([results[i].min_distance for i in range(len(self.pair_links))])
 
-    def link_distances(self, data: pin.Data) -> Array:
-        """Minimum distance [m] per guarded link (``inf`` without obstacles) for the placements in ``data``."""
-        out = np.full(len(self.robot.guarded_links), np.inf)
-        if len(self.pair_links):
-            np.minimum.at(out, self.pair_links, self.pair_distances(data))
+    def per_link(self, pair_distances: Array) -> Array:
+        """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""
+        out = np.full((pair_distances.shape[0], len(self.robot.guarded_links)), np.inf)
+        for link in range(out.shape[1]):
+            mask = self.pair_links == link
+            if mask.any():
+                out[:, link] = pair_distances[:, mask].min(axis=1)
         return out
