@@ -18,8 +18,8 @@ class UnknownNameError(PreviewctlError, KeyError):
     """A robot, frame, joint, link or option name that does not exist."""
 
     def __init__(self, kind: str, name: object, valid: Iterable[str]) -> None:
-        self.kind, self.name, self.valid = kind, name, sorted(valid)
-        shown = ", ".join(self.valid[:60]) + (", ..." if len(self.valid) > 60 else "")
+        self.kind, self.name, self.valid = kind, name, list(valid)
+        shown = ", ".join(self.valid[:80]) + (", ..." if len(self.valid) > 80 else "")
         super().__init__(f"unknown {kind} {name!r}; valid: {shown}")
 
     def __str__(self) -> str:  # KeyError would otherwise quote the whole message

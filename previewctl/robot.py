@@ -282,7 +282,7 @@ def load_robot(
         raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
     tip_frame = tip if tip is not None else _default_tip(model)
     if not model.existFrame(tip_frame):
-        raise UnknownNameError("frame", tip_frame, [f.name for f in model.frames])
+        raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
     collision = _prepare_geometry(collision, geometry)
     planar_ok = _is_planar(model)
     chosen_task: Task = task if task is not None else ("planar" if planar_ok else "position")
