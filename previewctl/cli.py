@@ -123,6 +123,166 @@ def _finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
+def cmd_run(args: argparse.Namespace) -> int:
+    """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
+    import time
+    from pathlib import Path
+
+    from previewctl.scenario import load_scenario
+    from previewctl.simulate import save_run, simulate
+    from previewctl.viz import make_figures
+
+    scenario = load_scenario(args.scenario)
+    name = args.controller or scenario.controller.name
+    out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"
+    width, start, shown = 30, time.perf_counter(), [-1.0]
+
+    def progress(fraction: float, t: float) -> None:
+        now = time.perf_counter()
+        if now - shown[0] < 0.1 and fraction < 1.0:
+            return
+        shown[0] = now
+        filled = round(width * fraction)
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}%  "
+                         f"t = {t:6.2f} s  elapsed {now - start:6.1f} s")
+        sys.stderr.flush()
+
+    def end_bar() -> None:
+        if shown[0] >= 0:
+            sys.stderr.write("\n")
+
+    try:
+        result = simulate(scenario, name, progress=progress, stop_on_collision=not args.continue_after_collision,
+                          seed=args.seed)
+    except NotImplementedError as exc:
+        end_bar()
+        sys.stderr.write(f"previewctl: error: {exc}\n")
+        return EXIT_USAGE
+    except BaseException:
+        end_bar()
+        raise
+    end_bar()
+    summary = result.summary()
+    npz_path, json_path = save_run(result, out)
+    figures = make_figures(result, scenario, out, gif=False if args.no_gif else None)
+
+    def metre(value: float | None) -> str:
+        return "-" if value is None else f"{value * 1e3:.2f} mm"
+
+    collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
+                 if summary["collided"] else "yes")
+    rows = [
+        ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
+        ("controller", summary["controller"]),
+        ("collision-free", collision),
+        ("max hand error", metre(summary["max_hand_error"])),
+        ("min clearance", metre(summary["min_clearance"])),
+        ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
+        ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
+        ("cycle time median / max",
+         f"{summary['cycle_time_median'] * 1e3:.2f} / {summary['cycle_time_max'] * 1e3:.2f} ms"),
+    ]
+    for label, value in rows:
+        print(f"{label:<26}{value}")
+    print(f"{'written':<26}{npz_path}, {json_path}")
+    for figure in figures:
+        print(f"{'':<26}{figure}")
+    return 0
+
+
+def cmd_map(args: argparse.Namespace) -> int:
+    """Global AMSIP map over the redundancy space of one hand target: best, peaks, optional PNG."""
+    from pathlib import Path
+    from typing import Any
+
+    from previewctl.amsip import Evaluator, Potential
+    from previewctl.avoidance import IndexParams
+    from previewctl.robot import load_robot
+    from previewctl.scene import Scene, load_scene
+    from previewctl.search import Candidate, explore
+
+    scenario_file = getattr(args, "scenario", None)
+    if scenario_file:
+        if args.scene or args.robot:
+            raise PreviewctlError("give either --scenario or --robot/--scene, not both")
+        from previewctl.scenario import load_scenario
+
+        scenario = load_scenario(scenario_file)
+        robot, scene = scenario.robot, scenario.scene
+        index, potential = scenario.index, scenario.potential
+        target = parse_vector(args.target, "target") if args.target else scenario.path.position(args.time)
+    else:
+        if not args.target:
+            raise PreviewctlError("--target X,Y (or X,Y,Z) is required" + (" unless --scenario is given"
+                                                                             if _has_scenarios() else ""))
+        robot = load_robot(args.robot or "planar4", geometry=args.geometry)
+        scene = load_scene(args.scene) if args.scene else Scene()
+        index, potential = IndexParams(length_unit=args.length_unit), Potential(influence_distance=args.influence)
+        target = parse_vector(args.target, "target")
+    if args.surface and not args.out:
+        raise PreviewctlError("--surface needs --out FILE.png (the surface goes to FILE_surface.png)")
+    evaluator = Evaluator(robot, scene, index, potential)
+    landscape = explore(robot, evaluator, target, args.time, resolution_deg=args.resolution, top_k=args.top_k,
+                        samples=args.samples, rng=np.random.default_rng(args.seed))
+
+    def row(candidate: Candidate) -> dict[str, Any]:
+        return {
+            "genes_deg": [round(float(v), 4) for v in np.degrees(np.mod(candidate.genes, 2 * np.pi))],
+            "branch": candidate.branch,
+            "q": [float(v) for v in candidate.q],
+            "q_deg": [round(float(v), 4) for v in np.degrees(candidate.q)],
+            "S": candidate.S,
+        }
+
+    written: list[str] = []
+    if args.out:
+        from previewctl.viz_map import plot_landscape, plot_surface
+
+        out = Path(args.out)
+        written.append(str(plot_landscape(landscape, robot, scene, out)))
+        if args.surface:
+            written.append(str(plot_surface(landscape, out.with_name(f"{out.stem}_surface{out.suffix or '.png'}"))))
+    report: dict[str, Any] = {
+        "robot": robot.name,
+        "target": [float(v) for v in np.asarray(target, float)],
+        "time": float(args.time),
+        "method": landscape.method,
+        "candidates": int(landscape.S.size),
+        "reachable_fraction": float(landscape.reachable.mean()),
+        "collision_free_fraction": float((landscape.S >= 0).mean()),
+        "best": row(landscape.best),
+        "peaks": [row(p) for p in landscape.peaks],
+        "files": written,
+    }
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"robot {robot.name}  hand target {report['target']} [m]  t = {args.time:g} s  ({landscape.method}: "
+          f"{report['candidates']} candidates, {100 * report['reachable_fraction']:.1f}% reach the target, "
+          f"{100 * report['collision_free_fraction']:.1f}% with S >= 0)")
+    print(f"{'':<8}{'genes [deg]':<22}{'branch':>7}  {'q [deg]':<40}{'S':>12}")
+    for label, item in [("best", report["best"]), *((f"peak {k}", p) for k, p in enumerate(report["peaks"], 1))]:
+        genes = ", ".join(f"{v:.1f}" for v in item["genes_deg"][:4]) + (" ..." if len(item["genes_deg"]) > 4 else "")
+        qs = ", ".join(f"{v:.1f}" for v in item["q_deg"])
+        print(f"{label:<8}{genes:<22}{item['branch']:>7}  {qs:<40}{item['S']:>12.2f}")
+    for path in written:
+        print(f"written {path}")
+    return 0
+
+
+def _has_scenarios() -> bool:
+    """Whether ``previewctl.scenario`` provides ``load_scenario`` (for ``map --scenario``)."""
+    import importlib.util
+
+    if importlib.util.find_spec("previewctl.scenario") is None:
+        return False
+    try:
+        from previewctl import scenario
+    except ImportError:
+        return False
+    return hasattr(scenario, "load_scenario")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
     parser = _Parser(
@@ -154,6 +314,47 @@ def build_parser() -> argparse.ArgumentParser:
     index.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")
     index.add_argument("--json", action="store_true", help="print JSON")
     index.set_defaults(func=cmd_index)
+
+    run = sub.add_parser(
+        "run",
+        help="simulate a scenario file and write its log and figures",
+        description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
+        "(run.npz, summary.json) and the figures go to --out.",
+    )
+    run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
+    run.add_argument("--controller", choices=("none", "gradient", "single", "multi", "reach"),
+                     help="override the scenario's controller")
+    run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
+    run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    run.add_argument("--continue-after-collision", action="store_true",
+                     help="log collisions and keep going instead of stopping at the first one")
+    run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
+    run.set_defaults(func=cmd_run)
+
+    map_ = sub.add_parser(
+        "map",
+        help="global AMSIP map over the redundancy space of a hand target",
+        description="Evaluate S over the redundancy space of one hand target (planar4: a grid over (q1, q2) "
+        "x both elbow branches; other arms: Halton samples of the Newton map) and print the best "
+        "configuration and the distinct peaks; --out writes the heat map (S < 0 black) and the arm.",
+    )
+    map_.add_argument("--robot", help="URDF path, shipped or example-robot-data name (default planar4)")
+    map_.add_argument("--target", help="hand target, comma-separated [m]: X,Y (planar) or X,Y,Z")
+    map_.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")
+    if _has_scenarios():
+        map_.add_argument("--scenario", help="scenario TOML file: robot, scene, index and (at --time) the target")
+    map_.add_argument("--time", type=float, default=0.0, help="time at which moving obstacles are placed [s]")
+    map_.add_argument("--out", help="write the map to this PNG file")
+    map_.add_argument("--surface", action="store_true", help="also write the 3-D surface to <out>_surface.png")
+    map_.add_argument("--json", action="store_true", help="print JSON (genes in degrees, configuration, S, peaks)")
+    map_.add_argument("--resolution", type=float, default=1.0, help="grid step [deg] (default 1)")
+    map_.add_argument("--top-k", type=int, default=4, help="number of peaks to report (default 4)")
+    map_.add_argument("--samples", type=int, help="Halton samples for arms with more than two genes")
+    map_.add_argument("--seed", type=int, default=0, help="random shift of the samples (default 0)")
+    map_.add_argument("--geometry", choices=("convex", "mesh"), default="convex", help="robot collision geometry")
+    map_.add_argument("--length-unit", type=float, default=0.01, help="index length unit L_ref [m] (default 0.01: cm)")
+    map_.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")
+    map_.set_defaults(func=cmd_map)
     return parser
 
 

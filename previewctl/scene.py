@@ -9,7 +9,7 @@ per (guarded geometry, obstacle); ``pin.computeDistances`` then does all pairs i
 from __future__ import annotations
 
 import math
-import tomllib
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +23,11 @@ from numpy.typing import NDArray
 from previewctl.errors import SceneError
 from previewctl.motion import Motion, Static, motion_from_dict, rpy_to_matrix
 from previewctl.robot import Robot
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 Array = NDArray[np.float64]
 

@@ -1,0 +1,357 @@
+"""Tests of :mod:`previewctl.control`: eq. 19 tracking, null-space input, limits, preview skeleton."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from numpy.typing import NDArray
+
+from previewctl.amsip import Evaluator
+from previewctl.avoidance import kinematics
+from previewctl.control import (
+    ControllerParams,
+    ControllerSpec,
+    ControlState,
+    GradientController,
+    PreviewController,
+    TrackingController,
+    apply_limits,
+    check_preview_weights,
+    damped_pseudo_inverse,
+    make_controller,
+    wrapped_difference,
+)
+from previewctl.errors import ConfigurationError, PreviewctlError
+from previewctl.robot import Robot, load_robot
+from previewctl.scenario import Scenario, scenario_from_dict
+from previewctl.scene import Scene, scene_from_dict
+from previewctl.simulate import simulate
+from previewctl.trajectory import HandPath
+
+Array = NDArray[np.float64]
+TRACKING_TOLERANCE = 1e-3
+"""Largest hand error [m] accepted for eq. 19 tracking with nothing in the way."""
+
+PLANAR_Q0 = [0.6, 1.0, -1.2, -1.0]
+PLANAR_START = [1.9069, 1.0417]
+PANDA_Q0 = [-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785]
+
+
+def planar_doc(**overrides: Any) -> dict[str, Any]:
+    """A planar4 scenario document: hand along a 0.5 m line in 5 s (tests override sections)."""
+    doc: dict[str, Any] = {
+        "name": "planar_test",
+        "robot": {"source": "planar4", "q0": PLANAR_Q0},
+        "path": {"waypoints": [PLANAR_START, [1.6069, 0.6417]], "duration": 5.0},
+        "controller": {"name": "none"},
+        "timing": {"duration": 2.0},
+    }
+    doc.update(overrides)
+    return doc
+
+
+@pytest.fixture(scope="module")
+def planar() -> Robot:
+    return load_robot("planar4")
+
+
+@pytest.fixture(scope="module")
+def panda_scenario() -> Scenario:
+    """Panda, hand along a horizontal line with a ball nearby (never touching in 3 s)."""
+    doc = {
+        "name": "panda_test",
+        "robot": {"source": "panda", "q0": PANDA_Q0},
+        "path": {"waypoints": [[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]], "duration": 10.0},
+        "obstacles": [{"name": "ball", "shape": "sphere", "radius": 0.08, "position": [0.1, 0.25, 0.75]}],
+        "controller": {"name": "none", "gradient_gain": 1e-3},
+        "timing": {"duration": 3.0},
+    }
+    return scenario_from_dict(doc)
+
+
+def state_for(robot: Robot, q: Array, path: HandPath, scene: Scene | None = None, *, dt: float = 0.01,
+              frame_due: bool = True) -> ControlState:
+    return ControlState(kinematics(robot, q[None, :]), path, scene or Scene(), dt, frame_due)
+
+
+def quick(scenario: Scenario, controller: str) -> Any:
+    """Simulate with the search geometry as the 'exact' check (skips the mesh reload)."""
+    ev = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
+    return simulate(scenario, controller, exact_evaluator=ev)
+
+
+# ------------------------------------------------------------------------------- eq. 19 tracking
+
+
+def test_eq19_tracks_planar_path_and_gradient_does_not_disturb_the_hand() -> None:
+    scenario = scenario_from_dict(planar_doc(
+        obstacles=[{"name": "ball", "shape": "sphere", "radius": 0.15, "position": [1.0, 0.6]}]))
+    none, grad = quick(scenario, "none"), quick(scenario, "gradient")
+    assert none.hand_error.max() < TRACKING_TOLERANCE
+    assert grad.hand_error.max() < TRACKING_TOLERANCE
+    # the null-space input really moved the arm and raised S, yet the hand followed the same path
+    assert np.abs(grad.q - none.q).max() > 0.05
+    assert grad.S.mean() > none.S.mean()
+    np.testing.assert_allclose(grad.hand[:, :2], none.hand[:, :2], atol=2 * TRACKING_TOLERANCE)
+
+
+def test_eq19_tracks_panda_path_none_and_gradient(panda_scenario: Scenario) -> None:
+    none, grad = quick(panda_scenario, "none"), quick(panda_scenario, "gradient")
+    assert none.hand_error.max() < TRACKING_TOLERANCE
+    assert grad.hand_error.max() < 2 * TRACKING_TOLERANCE
+    assert np.abs(grad.q - none.q).max() > 0.05
+    assert not none.collision.any() and not grad.collision.any()
+
+
+def test_null_space_part_does_not_move_the_hand(panda_scenario: Scenario) -> None:
+    s = panda_scenario
+    ev = Evaluator(s.robot, s.scene, s.index, s.potential)
+    controller = GradientController(s.robot, ev, s.controller.params)
+    rng = np.random.default_rng(3)
+    for q in [s.q0, *(s.q0 + rng.normal(0, 0.2, 7) for _ in range(3))]:
+        q = np.clip(q, s.robot.lower_limits, s.robot.upper_limits)
+        state = state_for(s.robot, q, s.path, s.scene)
+        _, info = controller.command(0.5, q, state)
+        J = state.kin.J_task[0]
+        assert np.linalg.norm(info.qdot_null) > 1e-3
+        assert np.linalg.norm(J @ info.qdot_null) < 1e-10 * np.linalg.norm(info.qdot_null) + 1e-14
+
+
+def test_gradient_matches_directional_derivative(planar: Robot) -> None:
+    scene = scene_from_dict([{"name": "b", "shape": "sphere", "radius": 0.2, "position": [1.2, 0.5]}])
+    ev = Evaluator(planar, scene)
+    controller = GradientController(planar, ev, ControllerParams(fd_step=1e-5))
+    q = np.array(PLANAR_Q0)
+    g = controller.gradient(q, 0.0)
+    d = np.array([0.3, -0.2, 0.5, 0.1])
+    h = 1e-6
+    numeric = (ev(q + h * d).S[0] - ev(q - h * d).S[0]) / (2 * h)
+    assert g @ d == pytest.approx(numeric, rel=1e-4)
+
+
+def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(planar: Robot) -> None:
+    q = np.array(PLANAR_Q0)
+    J = kinematics(planar, q[None, :]).J_task[0]
+    J_sharp, lam = damped_pseudo_inverse(J, 0.05, 0.05)
+    assert lam == 0.0
+    np.testing.assert_allclose(J_sharp, np.linalg.pinv(J), atol=1e-12)
+    # fully stretched arm: the y row is non-zero, the x row is zero -> sigma_min = 0
+    J0 = kinematics(planar, np.zeros((1, 4))).J_task[0]
+    J0_sharp, lam0 = damped_pseudo_inverse(J0, 0.05, 0.05)
+    assert lam0 == pytest.approx(0.05)
+    assert np.isfinite(J0_sharp).all()
+    path = HandPath(np.array([[3.0, 0.0], [2.9, 0.0]]), 1.0)  # pull the hand inwards along x
+    qdot, info = TrackingController(planar).command(0.0, np.zeros(4), state_for(planar, np.zeros(4), path))
+    assert np.isfinite(qdot).all() and np.abs(info.qdot_task).max() < 10.0
+
+
+# ----------------------------------------------------------------------------------- limits
+
+
+def test_velocity_limits_by_uniform_scaling_in_a_run() -> None:
+    doc = planar_doc(controller={"name": "none", "velocity_scale": 0.05, "feedback_gain": 20.0},
+                     path={"waypoints": [PLANAR_START, [1.0, 0.3]], "duration": 1.0})
+    scenario = scenario_from_dict(doc)
+    run = quick(scenario, "none")
+    limit = 0.05 * scenario.robot.velocity_limits
+    assert (np.abs(run.qdot_requested) > limit * 1.5).any(), "the controller should ask for more than the limit"
+    assert (np.abs(run.qdot) <= limit * (1 + 1e-12)).all()
+    scaled = run.velocity_scale < 1
+    assert scaled.any()
+    # same direction as requested
+    a, b = run.qdot[scaled], run.qdot_requested[scaled]
+    cos = (a * b).sum(1) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
+    np.testing.assert_allclose(cos, 1.0, atol=1e-12)
+
+
+def test_apply_limits_clamps_towards_position_limits(panda_scenario: Scenario) -> None:
+    robot = panda_scenario.robot
+    q = np.array(PANDA_Q0)
+    q[3] = robot.upper_limits[3] - 1e-3  # elbow 1 mm-rad below its upper limit
+    qdot = np.zeros(7)
+    qdot[3], qdot[0] = 1.0, 0.5
+    out, scale, clamped = apply_limits(robot, q, qdot, 0.01)
+    assert clamped and scale == 1.0
+    assert q[3] + out[3] * 0.01 == pytest.approx(robot.upper_limits[3])
+    assert out[0] == 0.5
+    assert qdot[3] == 1.0  # the input is not modified
+
+
+def test_position_limits_hold_when_the_null_space_drive_pushes_past_them(panda_scenario: Scenario) -> None:
+    # a (fake) imaginary arm beyond joint 7's upper limit pulls it up (joint 7 turns the hand about the
+    # TCP axis: pure self-motion for a position task): it must stop exactly at the limit
+    robot = panda_scenario.robot
+    beyond = np.array(PANDA_Q0)
+    beyond[6] = robot.upper_limits[6] + 0.5
+    spec = ControllerSpec("single", ControllerParams(gain=(5.0,)))
+    scenario = replace(panda_scenario, scene=Scene(), controller=spec)
+    ev = Evaluator(robot, scenario.scene)
+    controller = make_controller(spec, robot, ev, np.random.default_rng(0),
+                                 search_factory=lambda i, rng: FakeGA(beyond))
+    run = simulate(scenario, controller=controller, exact_evaluator=ev)
+    lo, hi = robot.lower_limits, robot.upper_limits
+    assert (run.q >= lo - 1e-9).all() and (run.q <= hi + 1e-9).all()
+    assert np.isclose(run.q[:, 6], hi[6], atol=1e-9).any(), "joint 7 should reach its limit"
+    assert run.hand_error.max() < TRACKING_TOLERANCE
+    assert (np.abs(run.qdot) <= robot.velocity_limits * (1 + 1e-12)).all()
+
+
+# -------------------------------------------------------------------------------- weights k_i
+
+
+@pytest.mark.parametrize(
+    ("weights", "message"),
+    [
+        ([0.5, 0.6], "sum to 1"),
+        ([1.0], "0 < k_i < 1"),
+        ([0.0, 1.0], "k_1 = 0.0"),
+        ([1.2, -0.2], "k_1 = 1.2"),
+        ([], "non-empty"),
+        (["a", 0.5], "list of numbers"),
+    ],
+)
+def test_preview_weights_validation(weights: list[Any], message: str) -> None:
+    with pytest.raises(ConfigurationError, match=message) as info:
+        check_preview_weights(weights, "controller.weights")
+    assert "controller.weights" in str(info.value)
+    with pytest.raises(ConfigurationError, match="weights"):
+        ControllerParams(weights=tuple(weights))
+
+
+def test_preview_weights_accept_the_paper_values() -> None:
+    assert check_preview_weights([0.3, 0.65, 0.05]) == (0.3, 0.65, 0.05)
+    assert ControllerParams().preview_weights("single") == (1.0,)
+    assert ControllerParams(weights=(0.5, 0.5)).preview_weights("multi") == (0.5, 0.5)
+
+
+def test_controller_params_reject_bad_values() -> None:
+    with pytest.raises(ConfigurationError, match="velocity_scale"):
+        ControllerParams(velocity_scale=1.5)
+    with pytest.raises(ConfigurationError, match="gain"):
+        ControllerParams(gain=(-1.0,))
+    with pytest.raises(ConfigurationError, match="elite"):
+        ControllerParams(population=4, elite=4)
+    with pytest.raises(ConfigurationError, match="unknown controller 'fancy'"):
+        ControllerSpec("fancy")
+
+
+# -------------------------------------------------------------------------- preview skeleton
+
+
+@dataclass(frozen=True)
+class FakeCandidate:
+    genes: Array
+    branch: int
+    q: Array
+    S: float
+
+
+class FakeGA:
+    """A stand-in for ``previewctl.search.OneStepGA``: ``step`` returns a fixed candidate."""
+
+    def __init__(self, q: Array, S: float = 100.0) -> None:
+        self.candidate = FakeCandidate(np.zeros(2), 0, np.array(q, dtype=float), S)
+        self.calls: list[tuple[Array, float]] = []
+        self.seeded: list[Array] = []
+
+    def step(self, target: Array, t: float) -> FakeCandidate:
+        self.calls.append((np.array(target), t))
+        return self.candidate
+
+    def peaks(self) -> tuple[FakeCandidate, ...]:
+        return (self.candidate,)
+
+    def seed(self, q: Array) -> None:
+        self.seeded.append(np.array(q))
+
+
+def planar_ik(robot: Robot, q12: tuple[float, float], tip: Array, elbow: int = 1) -> Array:
+    """A planar4 configuration with the given (q1, q2) and the hand at ``tip`` (closed-form 2-link IK)."""
+    q1, q2 = q12
+    link = 0.75
+    o3 = link * np.array([np.cos(q1), np.sin(q1)]) + link * np.array([np.cos(q1 + q2), np.sin(q1 + q2)])
+    d = tip - o3
+    c4 = (d @ d - 2 * link**2) / (2 * link**2)
+    q4 = elbow * np.arccos(np.clip(c4, -1, 1))
+    phi = np.arctan2(d[1], d[0]) - np.arctan2(link * np.sin(q4), link + link * np.cos(q4))
+    return np.array([q1, q2, phi - q1 - q2, q4])
+
+
+def test_preview_controller_computes_eq21_with_fake_searches(planar: Robot) -> None:
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5)
+    q = np.array(PLANAR_Q0)
+    targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
+    fakes = [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)]
+    controller = PreviewController(planar, params, "multi", fakes)
+    _, info = controller.command(1.0, q, state_for(planar, q, path))
+    expected_v = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
+    np.testing.assert_allclose(info.v, expected_v, atol=1e-12)
+    assert info.targets is not None and info.target_amsip is not None
+    np.testing.assert_allclose(info.targets, np.array(targets))
+    np.testing.assert_allclose(info.target_amsip, np.array([10.0, 20.0]))
+    # each imaginary arm works on its own future time t + i t~ and hand target r_d(t + i t~)
+    assert [c[1] for c in fakes[0].calls] == [1.5] and [c[1] for c in fakes[1].calls] == [2.0]
+    np.testing.assert_allclose(fakes[1].calls[0][0], path.position(2.0))
+    assert all(len(f.seeded) == 1 for f in fakes)
+    # no frame due: no new generation, same targets
+    controller.command(1.01, q, state_for(planar, q, path, frame_due=False))
+    assert len(fakes[0].calls) == 1
+    controller.command(1.02, q, state_for(planar, q, path, frame_due=True))
+    assert len(fakes[0].calls) == 2
+
+
+def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar: Robot) -> None:
+    doc = planar_doc(path={"waypoints": [PLANAR_START, [1.9069, 1.0317]], "duration": 0.5},
+                     controller={"name": "single", "gain": 2.0}, timing={"duration": 4.0})
+    scenario = scenario_from_dict(doc)
+    goal_tip = np.array([1.9069, 1.0317])
+    target = planar_ik(scenario.robot, (0.9, 0.6), goal_tip)
+    fake = FakeGA(target)
+    ev = Evaluator(scenario.robot, scenario.scene)
+    controller = make_controller(scenario.controller, scenario.robot, ev, np.random.default_rng(0),
+                                 search_factory=lambda i, rng: fake)
+    run = simulate(scenario, controller=controller, exact_evaluator=ev)
+    assert run.controller == "single"
+    assert run.hand_error.max() < TRACKING_TOLERANCE
+    assert np.abs(run.q[0] - target).max() > 0.3
+    np.testing.assert_allclose(run.q[-1], target, atol=0.01)
+    assert 0 < len(fake.calls) <= int(np.ceil(4.0 / 0.033)) + 1
+
+
+def test_wrapped_difference_goes_the_short_way(planar: Robot) -> None:
+    q = np.array([3.0, 0.0, 0.0, 0.0])
+    target = np.array([-3.0, 0.0, 0.0, 0.0])  # 6 rad apart, 0.28 rad the other way round
+    diff = wrapped_difference(planar, q, target)
+    assert diff[0] == pytest.approx(2 * np.pi - 6.0)
+
+
+def test_reach_is_not_built_yet(planar: Robot) -> None:
+    with pytest.raises(NotImplementedError, match="reach"):
+        make_controller(ControllerSpec("reach"), planar, Evaluator(planar), np.random.default_rng(0))
+
+
+def test_missing_search_module_is_a_clear_error(planar: Robot, monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    monkeypatch.setitem(sys.modules, "previewctl.search", None)  # import fails
+    with pytest.raises(PreviewctlError, match="1-step GA"):
+        make_controller(ControllerSpec("multi"), planar, Evaluator(planar), np.random.default_rng(0))
+
+
+def test_pose_task_tracks_orientation() -> None:
+    robot = load_robot("planar4", task="pose")
+    q = np.array(PLANAR_Q0)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    tip = data.oMf[robot.tip_frame_id]
+    target_R = tip.rotation @ pin.exp3(np.array([0.0, 0.0, 0.1]))
+    p0 = tip.translation
+    path = HandPath(np.array([p0, p0 + np.array([0.001, 0.0, 0.0])]), 1.0, orientation=target_R)
+    _, info = TrackingController(robot).command(0.0, q, state_for(robot, q, path))
+    assert info.task_error.shape == (6,)
+    assert info.task_error[5] == pytest.approx(0.1, abs=1e-9)

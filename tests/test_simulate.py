@@ -1,0 +1,289 @@
+"""Tests of :mod:`previewctl.simulate` and :mod:`previewctl.viz`: the loop, collisions, saving, figures."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import fields, replace
+from pathlib import Path
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from previewctl.cli import main
+from previewctl.errors import PreviewctlError
+from previewctl.robot import Robot
+from previewctl.scenario import Scenario, Timing, scenario_from_dict
+from previewctl.simulate import (
+    NPZ_NAME,
+    SUMMARY_NAME,
+    RunResult,
+    frame_index,
+    load_run,
+    load_summary,
+    save_run,
+    simulate,
+)
+from previewctl.viz import make_figures, obstacle_outline, strobe_plot
+
+Q0 = [0.6, 1.0, -1.2, -1.0]
+START = [1.9069, 1.0417]
+BOX = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0, 1.2, 0.0], "rpy": [0, 0, 0.3]}
+
+
+def planar_doc(**sections: Any) -> dict[str, Any]:
+    doc: dict[str, Any] = {
+        "name": "sim_test",
+        "robot": {"source": "planar4", "q0": Q0},
+        "path": {"waypoints": [START, [1.6069, 0.6417]], "duration": 5.0},
+        "controller": {"name": "none"},
+    }
+    doc.update(sections)
+    return doc
+
+
+@pytest.fixture(scope="module")
+def crash() -> Scenario:
+    """The hand path drives link3 into a small rotated box (at about t = 4.6 s)."""
+    return scenario_from_dict(planar_doc(obstacles=[BOX]))
+
+
+@pytest.fixture(scope="module")
+def short_run() -> tuple[Scenario, RunResult]:
+    scenario = scenario_from_dict(planar_doc(
+        obstacles=[{"name": "ball", "shape": "sphere", "radius": 0.1, "motion": {
+            "type": "constant_velocity", "position": [1.2, 0.2], "velocity": [0.0, 0.1]}}],
+        timing={"duration": 0.6}))
+    return scenario, simulate(scenario, "gradient")
+
+
+def coal_link_distances(robot: Robot, q: np.ndarray, box: dict[str, Any]) -> np.ndarray:
+    """Independent check: Coal distance between each guarded link's cylinder and the box."""
+    model, data = robot.model, robot.model.createData()
+    pin.forwardKinematics(model, data, q)
+    c, s = np.cos(box["rpy"][2]), np.sin(box["rpy"][2])
+    box_tf = coal.Transform3s(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]), np.array(box["position"], float))
+    out = []
+    for link in robot.guarded_links:
+        joint = model.getJointId("joint" + link[-1])
+        axis_tf = data.oMi[joint] * pin.SE3(pin.rpy.rpyToMatrix(0, np.pi / 2, 0), np.array([0.375, 0, 0]))
+        request, result = coal.DistanceRequest(), coal.DistanceResult()
+        d = coal.distance(coal.Cylinder(0.03, 0.75), coal.Transform3s(axis_tf.rotation, axis_tf.translation),
+                          coal.Box(*box["size"]), box_tf, request, result)
+        out.append(d)
+    return np.array(out)
+
+
+# ------------------------------------------------------------------------------------- the loop
+
+
+def test_collision_is_detected_reported_and_stops_the_run(crash: Scenario) -> None:
+    full = simulate(crash, stop_on_collision=False)
+    assert full.steps == crash.timing.steps + 1
+    # independent Coal check of the logged configurations: first step with a link inside the box
+    independent = np.array([coal_link_distances(crash.robot, q, BOX) for q in full.q])
+    first = int(np.flatnonzero((independent <= 0).any(axis=1))[0])
+    link = crash.robot.guarded_links[int(np.argmin(independent[first]))]
+    np.testing.assert_allclose(full.link_distances, independent, atol=1e-6)
+    assert 4.0 < full.t[first] < 5.0 and link == "link3"
+
+    run = simulate(crash)
+    summary = run.summary()
+    assert summary["collided"] is True
+    assert summary["collision_time"] == pytest.approx(full.t[first])
+    assert summary["collision_link"] == link
+    assert run.steps == first + 1, "the run stops at the colliding step"
+    assert run.collision[-1] and not run.collision[:-1].any()
+    assert (run.qdot[-1] == 0).all()
+    assert summary["min_clearance"] < 0 and summary["min_S"] < 0
+
+
+def test_continue_after_collision_logs_every_step(crash: Scenario) -> None:
+    run = simulate(replace(crash, timing=Timing(0.01, 0.033, 5.0)), stop_on_collision=False)
+    assert run.collision.any() and run.steps == 501
+
+
+def test_log_contents(short_run: tuple[Scenario, RunResult]) -> None:
+    scenario, run = short_run
+    T = scenario.timing.steps + 1
+    assert run.steps == T and run.q.shape == (T, 4) and run.qdot.shape == (T, 4)
+    assert run.link_distances.shape == (T, 3) and run.link_names == ("link1", "link2", "link3")
+    np.testing.assert_allclose(run.t, np.arange(T) * 0.01)
+    np.testing.assert_allclose(run.desired[:, :2], scenario.path.position(run.t), atol=1e-12)
+    np.testing.assert_allclose(run.hand_error, np.linalg.norm(run.desired - run.hand, axis=1))
+    # the log's q really integrates the logged q̇
+    np.testing.assert_allclose(run.q[1:], run.q[:-1] + run.qdot[:-1] * 0.01, atol=1e-12)
+    assert (run.cycle_time[:-1] > 0).all()
+    # a camera frame every 33 ms: frames 0..18 start within 0.6 s
+    assert run.frame_due[0] and run.frame_due.sum() == frame_index(0.6, 0.033) + 1
+    assert np.isfinite(run.S).all() and (run.S > 0).all()
+    summary = run.summary()
+    assert summary["controller"] == "gradient" and summary["scenario"] == "sim_test" and summary["steps"] == T
+    assert summary["max_abs_qdot"] == pytest.approx(np.abs(run.qdot).max())
+    assert summary["cycle_time_median"] <= summary["cycle_time_max"]
+
+
+def test_progress_is_reported(crash: Scenario) -> None:
+    seen: list[tuple[float, float]] = []
+    short = replace(crash, timing=Timing(0.01, 0.033, 0.2))
+    simulate(short, progress=lambda f, t: seen.append((f, t)))
+    fractions = [f for f, _ in seen]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0 and fractions == sorted(fractions)
+
+
+# ------------------------------------------------------------------------------------- saving
+
+
+def test_saved_run_reloads_equal(short_run: tuple[Scenario, RunResult], tmp_path: Path) -> None:
+    _, run = short_run
+    npz_path, json_path = save_run(run, tmp_path / "out")
+    assert npz_path.name == NPZ_NAME and json_path.name == SUMMARY_NAME
+    again = load_run(tmp_path / "out")
+    for f in fields(RunResult):
+        a, b = getattr(run, f.name), getattr(again, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype, f.name
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+        else:
+            assert a == b, f.name
+    assert again.summary() == run.summary()
+    assert load_summary(tmp_path / "out") == run.summary()
+    assert json.loads(json_path.read_text())["min_clearance"] is not None
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [NPZ_NAME, SUMMARY_NAME]
+
+
+def test_failed_write_leaves_no_partial_file(short_run: tuple[Scenario, RunResult], tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    _, run = short_run
+    out = tmp_path / "out"
+
+    def broken_replace(src: str, dst: str) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(PreviewctlError, match="No space left"):
+        save_run(run, out)
+    assert list(out.iterdir()) == []
+    monkeypatch.undo()
+
+    # an older complete run stays intact when the new write fails half-way (in the JSON)
+    save_run(run, out)
+    before = (out / NPZ_NAME).read_bytes(), (out / SUMMARY_NAME).read_bytes()
+    calls = {"n": 0}
+    real_replace = os.replace
+
+    def fail_second(src: str, dst: str) -> None:
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise OSError(5, "I/O error")
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", fail_second)
+    with pytest.raises(PreviewctlError, match="I/O error"):
+        save_run(run, out)
+    assert sorted(p.name for p in out.iterdir()) == [NPZ_NAME, SUMMARY_NAME]
+    assert (out / SUMMARY_NAME).read_bytes() == before[1]
+    load_run(out)  # the npz is complete
+
+
+def test_load_run_of_empty_folder_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(PreviewctlError, match=r"run\.npz is missing"):
+        load_run(tmp_path)
+
+
+# ------------------------------------------------------------------------------------ figures
+
+
+def test_figures_and_gif(crash: Scenario, tmp_path: Path) -> None:
+    run = simulate(replace(crash, timing=Timing(0.02, 0.033, 5.0)))
+    assert run.summary()["collided"]
+    written = make_figures(run, crash, tmp_path)
+    names = sorted(p.name for p in written)
+    assert names == ["S.png", "clearance.png", "error.png", "run.gif", "strobe.png"]
+    from PIL import Image
+
+    with Image.open(tmp_path / "run.gif") as gif:
+        assert 2 <= getattr(gif, "n_frames", 1) <= 150
+    with Image.open(tmp_path / "strobe.png") as png:
+        assert png.size[0] > 300
+
+
+def test_obstacle_outlines_in_the_plane(crash: Scenario) -> None:
+    from previewctl.scene import scene_from_dict
+
+    scene = scene_from_dict([
+        {"name": "box", "shape": "box", "size": [0.2, 0.4, 1.0], "position": [1, 2, 0], "rpy": [0, 0, np.pi / 2]},
+        {"name": "floor", "shape": "halfspace", "normal": [0, 1, 0], "offset": -0.5},
+        {"name": "cap", "shape": "capsule", "radius": 0.1, "length": 0.6, "rpy": [0, np.pi / 2, 0]},
+    ])
+    bounds = (-2.0, 2.0, -2.0, 2.0)
+    kind, box = obstacle_outline(scene.obstacles[0], 0.0, bounds)
+    assert kind == "polygon"
+    np.testing.assert_allclose(np.sort(box[:, 0]), [0.8, 0.8, 1.2, 1.2], atol=1e-12)  # turned by 90 deg
+    np.testing.assert_allclose(np.sort(box[:, 1]), [1.9, 1.9, 2.1, 2.1], atol=1e-12)
+    kind, half = obstacle_outline(scene.obstacles[1], 0.0, bounds)
+    assert half[:, 1].max() == pytest.approx(-0.5) and half[:, 1].min() == pytest.approx(-2.0)
+    kind, stadium = obstacle_outline(scene.obstacles[2], 0.0, bounds)
+    assert stadium[:, 0].max() == pytest.approx(0.4) and stadium[:, 1].max() == pytest.approx(0.1)
+
+
+def test_spatial_strobe(tmp_path: Path) -> None:
+    doc = {
+        "robot": {"source": "panda", "q0": [-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785]},
+        "path": {"waypoints": [[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]], "duration": 10.0},
+        "obstacles": [{"name": "ball", "shape": "sphere", "radius": 0.08, "motion": {
+            "type": "constant_velocity", "position": [0.06, 0.6, 0.72], "velocity": [0, -0.12, 0]}}],
+        "timing": {"duration": 0.3},
+    }
+    scenario = scenario_from_dict(doc)
+    from previewctl.amsip import Evaluator
+
+    run = simulate(scenario, exact_evaluator=Evaluator(scenario.robot, scenario.scene))
+    path = strobe_plot(run, scenario, tmp_path / "strobe.png", poses=4)
+    assert path.is_file() and path.stat().st_size > 10_000
+
+
+# ------------------------------------------------------------------------------------------ CLI
+
+
+def test_cli_run_writes_summary_log_and_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = tmp_path / "tiny.toml"
+    scenario.write_text(
+        'name = "tiny"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
+        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
+        '[[obstacles]]\nname = "b"\nshape = "sphere"\nradius = 0.1\nposition = [1.0, 0.2]\n'
+        "[timing]\nduration = 0.3\n"
+    )
+    out = tmp_path / "run"
+    assert main(["run", str(scenario), "--out", str(out), "--controller", "gradient", "--no-gif", "--seed", "1"]) == 0
+    captured = capsys.readouterr()
+    assert "100.0%" in captured.err
+    for label in ("collision-free", "max hand error", "min clearance", "mean / min S", "max |qdot|",
+                  "cycle time median / max"):
+        assert label in captured.out
+    assert sorted(p.name for p in out.iterdir()) == ["S.png", "clearance.png", "error.png", NPZ_NAME,
+                                                     "strobe.png", SUMMARY_NAME]
+    assert load_summary(out)["controller"] == "gradient"
+
+
+def test_cli_default_out_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    scenario = tmp_path / "tiny.toml"
+    scenario.write_text(
+        'name = "tiny"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
+        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
+        '[timing]\nduration = 0.05\n[output]\nfigures = ["S"]\ngif = false\n'
+    )
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scenario)]) == 0
+    assert (tmp_path / "out" / "tiny-none" / NPZ_NAME).is_file()
+    assert (tmp_path / "out" / "tiny-none" / "S.png").is_file()
+
+
+def test_cli_reach_is_not_built_yet_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = Path(__file__).resolve().parent.parent / "scenarios" / "planar_free.toml"
+    assert main(["run", str(scenario), "--controller", "reach", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("previewctl: error: reach:")
