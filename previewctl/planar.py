@@ -75,6 +75,9 @@ def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: Inde
     pc = np.where(full, a / det, c * inv_lmax2)
     volumes = np.empty((points.shape[2], len(chain.control_joints)))
     for i, joint in enumerate(chain.control_joints):
+        if joint == 0 or ranks[i] == 0:  # the base joint's origin never moves: V = 0
+            volumes[:, i] = 0.0
+            continue
         kx, ky = jacobian(points, joint)
         # P = J_i J_n^T, G = J_i J_i^T - P A^+ P^T (only the point's own columns are non-zero)
         p11, p12 = _dot(kx, jx[:joint]), _dot(kx, jy[:joint])
@@ -84,10 +87,8 @@ def amsi(chain: PlanarChain, points: Array, ranks: tuple[int, ...], params: Inde
         g22 = _dot(ky, ky) - (p21 * (pa * p21 + pb * p22) + p22 * (pb * p21 + pc * p22))
         if ranks[i] == 2:
             volumes[:, i] = unit_ball_volume(2) * np.sqrt(np.maximum(g11 * g22 - g12 * g12, 0.0))
-        elif ranks[i] == 1:
-            volumes[:, i] = unit_ball_volume(1) * np.sqrt(np.maximum(_eig2(g11, g12, g22)[0], 0.0))
         else:
-            volumes[:, i] = 0.0
+            volumes[:, i] = unit_ball_volume(1) * np.sqrt(np.maximum(_eig2(g11, g12, g22)[0], 0.0))
     return volumes, amsi_from_volumes(volumes, ranks, params)
 
 

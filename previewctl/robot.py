@@ -396,9 +396,13 @@ def _default_tip(model: pin.Model) -> str:
     candidates = [i for i, f in enumerate(model.frames) if f.parentJoint == last]
 
     def hops(i: int) -> int:
+        # A locked joint's frame can be its own parent after buildReducedModel: stop there too.
         count = 0
         while model.frames[i].parentJoint == last and model.frames[i].type != pin.FrameType.JOINT:
-            i, count = int(model.frames[i].parentFrame), count + 1
+            parent = int(model.frames[i].parentFrame)
+            if parent == i:
+                break
+            i, count = parent, count + 1
         return count
 
     tools = [i for i in candidates if any(h in model.frames[i].name.lower() for h in _TOOL_NAME_HINTS)]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import sys
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -317,6 +318,11 @@ class Clearance:
         self.pair_links = np.array(pair_links, dtype=int)
         self.pair_obstacles = np.array(pair_obstacles, dtype=int)
         self.data = self.geometry.createData()
+        for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
+            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+            with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
+                warnings.simplefilter("ignore", DeprecationWarning)
+                request.enable_cached_gjk_guess = False
         self._results = self.data.distanceResults  # held once: lookups through the bindings are slow
         self._time = 0.0
 

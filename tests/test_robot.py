@@ -1,0 +1,535 @@
+"""Tests of :mod:`previewctl.robot` and scene loading: defaults, options, typed errors, packaging."""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import previewctl
+from previewctl import (
+    ConfigurationError,
+    PreviewctlError,
+    RobotLoadError,
+    SceneError,
+    UnknownNameError,
+    avoidance,
+    evaluate,
+    load_robot,
+    load_scene,
+)
+from previewctl.robot import Robot, shipped_robot_names, shipped_robots_dir
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def rot_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+# ------------------------------------------------------------------------------ defaults
+
+
+def test_planar4_defaults(planar4: Robot) -> None:
+    assert planar4.nq == planar4.nv == 4
+    assert planar4.joint_names == ("joint1", "joint2", "joint3", "joint4")
+    assert planar4.control_points == ("joint2", "joint3", "joint4")
+    assert planar4.guarded_links == ("link1", "link2", "link3")
+    assert planar4.task == "planar"
+    assert planar4.tip_frame == "tip"
+    assert planar4.planar is not None
+    assert tuple(planar4.structural_ranks) == (1, 2, 1)
+    assert all(isinstance(g.geometry, coal.Capsule) for g in planar4.collision_model.geometryObjects)
+    assert [g.geometry.radius for g in planar4.collision_model.geometryObjects] == pytest.approx([0.03] * 3)
+    np.testing.assert_allclose(planar4.lower_limits, -2 * np.pi)
+    np.testing.assert_allclose(planar4.upper_limits, 2 * np.pi)
+    data = planar4.model.createData()
+    pin.framesForwardKinematics(planar4.model, data, np.zeros(4))
+    np.testing.assert_allclose(data.oMf[planar4.tip_frame_id].translation, [3.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(evaluate(planar4, None, np.zeros(4)).tip_position, [[3.0, 0.0, 0.0]], atol=1e-12)
+    # control points are the tips of links 1-3
+    for name, x in zip(planar4.control_points, (0.75, 1.5, 2.25), strict=True):
+        np.testing.assert_allclose(data.oMf[planar4.model.getFrameId(name)].translation, [x, 0.0, 0.0], atol=1e-12)
+    assert avoidance(planar4, np.zeros(4)).J_task.shape == (2, 4)
+
+
+def test_panda_defaults(panda: Robot) -> None:
+    assert panda.nq == panda.nv == 7
+    assert panda.joint_names == tuple(f"panda_joint{i}" for i in range(1, 8))
+    assert not any("finger" in name for name in panda.joint_names)
+    assert panda.tip_frame == "panda_hand_tcp"
+    assert panda.task == "position"
+    assert panda.planar is None
+    assert len(panda.structural_ranks) == len(panda.control_points) > 0
+    assert set(panda.control_points) <= set(panda.joint_names)
+    assert "panda_hand" not in panda.guarded_links
+    assert all(isinstance(g.geometry, coal.Convex) for g in panda.collision_model.geometryObjects)
+    assert avoidance(panda, panda.neutral()).J_task.shape == (3, 7)
+
+
+def test_ur5_defaults(ur5: Robot) -> None:
+    assert ur5.nq == ur5.nv == 6
+    assert ur5.tip_frame == "tool0"
+    assert ur5.task == "position"
+    assert len(ur5.structural_ranks) == len(ur5.control_points)
+
+
+def test_kinova_continuous_joints(kinova: Robot) -> None:
+    assert (kinova.nq, kinova.nv) == (9, 6)
+    Q = kinova.random_configurations(np.random.default_rng(0), 5)
+    assert Q.shape == (5, 9)
+    # each continuous joint is a unit (cos, sin) pair
+    for j in range(1, kinova.model.njoints):
+        joint = kinova.model.joints[j]
+        if joint.nq == 2:
+            np.testing.assert_allclose(np.hypot(Q[:, joint.idx_q], Q[:, joint.idx_q + 1]), 1.0)
+
+
+def test_guarded_links_all_adds_hand_link() -> None:
+    robot = load_robot("planar4", guarded_links="all")
+    assert robot.guarded_links == ("link1", "link2", "link3", "link4")
+    assert len(robot.collision_model.geometryObjects) == 4
+    assert evaluate(robot, None, np.zeros(4)).link_distances.shape == (1, 4)
+
+
+def test_custom_control_points_and_links() -> None:
+    robot = load_robot("planar4", control_points=["joint3"], guarded_links=["link2"])
+    assert robot.control_points == ("joint3",)
+    assert robot.guarded_links == ("link2",)
+    assert tuple(robot.structural_ranks) == (2,)
+    assert avoidance(robot, np.array([0.3, 0.4, 0.5, 0.6])).M.shape == (1, 2, 4)
+
+
+def test_geometry_choice(planar4: Robot, panda: Robot, panda_mesh: Robot) -> None:
+    assert all(isinstance(g.geometry, coal.BVHModelBase) for g in panda_mesh.collision_model.geometryObjects)
+    assert all(isinstance(g.geometry, coal.Convex) for g in panda.collision_model.geometryObjects)
+    assert panda_mesh.guarded_links == panda.guarded_links
+    # the hull covers the mesh: from any outside point it is at most as far away
+    rng = np.random.default_rng(0)
+    probe = coal.Sphere(0.01)
+    for hull, mesh in zip(
+        panda.collision_model.geometryObjects, panda_mesh.collision_model.geometryObjects, strict=True
+    ):
+        assert hull.parentFrame == mesh.parentFrame
+        for _ in range(5):
+            direction = rng.normal(size=3)
+            at = coal.Transform3s(np.eye(3), 0.4 * direction / np.linalg.norm(direction))
+            identity = coal.Transform3s()
+            d_hull = coal.distance(hull.geometry, identity, probe, at, coal.DistanceRequest(), coal.DistanceResult())
+            d_mesh = coal.distance(mesh.geometry, identity, probe, at, coal.DistanceRequest(), coal.DistanceResult())
+            assert d_hull <= d_mesh + 1e-6
+    cylinders = load_robot("planar4", geometry="mesh")
+    assert all(isinstance(g.geometry, coal.Cylinder) for g in cylinders.collision_model.geometryObjects)
+    assert cylinders.planar is None  # the closed form needs capsules
+    assert all(isinstance(g.geometry, coal.Capsule) for g in planar4.collision_model.geometryObjects)
+
+
+def test_task_choices() -> None:
+    pose = load_robot("planar4", task="pose")
+    assert pose.task == "pose"
+    assert pose.planar is None
+    result = avoidance(pose, np.array([0.1, 0.2, 0.3, 0.4]))
+    assert result.J_task.shape == (6, 4)
+    assert result.J_points.shape == (3, 3, 4)
+    np.testing.assert_allclose(result.J_task[[2, 3, 4]], 0.0, atol=1e-12)  # z, wx, wy: out of the plane
+    np.testing.assert_allclose(result.J_task[5], 1.0)  # wz: every joint turns the hand
+    position = load_robot("planar4", task="position")
+    assert avoidance(position, np.zeros(4)).J_task.shape == (3, 4)
+
+
+# ------------------------------------------------------------------------------ robot errors
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    path = tmp_path / "nowhere.urdf"
+    with pytest.raises(RobotLoadError, match=re.escape(str(path))) as info:
+        load_robot(path)
+    assert isinstance(info.value, PreviewctlError)
+    with pytest.raises(RobotLoadError, match="does not exist"):
+        load_robot(str(tmp_path / "sub" / "robot"))
+
+
+def test_malformed_xml(tmp_path: Path) -> None:
+    path = write(tmp_path, "broken.urdf", '<robot name="b"><link name="a"></robot>')
+    with pytest.raises(RobotLoadError, match=r"not valid XML") as info:
+        load_robot(path)
+    assert str(path) in str(info.value)
+    not_robot = write(tmp_path, "other.urdf", "<model/>")
+    with pytest.raises(RobotLoadError, match=r"<model>"):
+        load_robot(not_robot)
+
+
+def test_no_movable_joint(tmp_path: Path) -> None:
+    path = write(
+        tmp_path,
+        "fixed.urdf",
+        """<?xml version="1.0"?>
+<robot name="statue">
+  <link name="base"/>
+  <joint name="weld" type="fixed"><parent link="base"/><child link="top"/><origin xyz="0 0 1"/></joint>
+  <link name="top"/>
+</robot>
+""",
+    )
+    with pytest.raises(RobotLoadError, match="no movable joint") as info:
+        load_robot(path)
+    assert isinstance(info.value, PreviewctlError)
+
+
+def test_unknown_robot_name() -> None:
+    with pytest.raises(UnknownNameError, match="unknown robot 'no_such_arm'") as info:
+        load_robot("no_such_arm")
+    message = str(info.value)
+    assert "planar4" in message
+    assert "panda" in message
+    assert isinstance(info.value, PreviewctlError)
+    assert isinstance(info.value, KeyError)
+
+
+def test_unknown_tip_frame() -> None:
+    with pytest.raises(UnknownNameError, match="frame 'hand'") as info:
+        load_robot("planar4", tip="hand")
+    for valid in ("tip", "link4", "joint2"):
+        assert re.search(rf"\b{valid}\b", str(info.value))
+
+
+def test_unknown_lock_joint() -> None:
+    with pytest.raises(UnknownNameError, match="joint 'joint9'") as info:
+        load_robot("planar4", lock=["joint9"])
+    assert "joint1" in str(info.value)
+    assert "joint4" in str(info.value)
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Raise TimeoutError in the main thread after ``seconds`` (interrupts a Python-level loop)."""
+
+    def on_alarm(signum: int, frame: object) -> None:
+        raise TimeoutError(f"still running after {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def test_lock_with_explicit_tip() -> None:
+    with time_limit(5):
+        robot = load_robot("planar4", lock=["joint4"], tip="tip")
+    assert robot.joint_names == ("joint1", "joint2", "joint3")
+    assert robot.nq == 3
+    assert robot.control_points == ("joint2", "joint3")
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, np.zeros(3))
+    np.testing.assert_allclose(data.oMf[robot.tip_frame_id].translation, [3.0, 0.0, 0.0], atol=1e-12)
+    with pytest.raises(RobotLoadError, match="every joint was locked"):
+        load_robot("planar4", lock=["joint1", "joint2", "joint3", "joint4"])
+
+
+def test_lock_last_joint_default_tip() -> None:
+    """Locking the last chain joint without naming the tip: the tip is still found ("tip")."""
+    with time_limit(3):
+        robot = load_robot("planar4", lock=["joint4"])
+    assert robot.joint_names == ("joint1", "joint2", "joint3")
+    assert robot.tip_frame == "tip"
+
+
+def test_unknown_task() -> None:
+    with pytest.raises(UnknownNameError, match="task 'orientation'") as info:
+        load_robot("planar4", task="orientation")  # type: ignore[arg-type]
+    for valid in ("planar", "position", "pose"):
+        assert valid in str(info.value)
+
+
+def test_unknown_geometry_choice() -> None:
+    with pytest.raises(UnknownNameError, match="geometry choice 'hull'") as info:
+        load_robot("planar4", geometry="hull")  # type: ignore[arg-type]
+    assert "convex" in str(info.value)
+    assert "mesh" in str(info.value)
+
+
+def test_unknown_control_point_and_link() -> None:
+    with pytest.raises(UnknownNameError, match=r"'elbow'.*joint1"):
+        load_robot("planar4", control_points=["elbow"])
+    with pytest.raises(UnknownNameError, match=r"'link9'.*link1"):
+        load_robot("planar4", guarded_links=["link9"])
+    with pytest.raises(UnknownNameError, match=r"'some'.*intermediate"):
+        load_robot("planar4", guarded_links="some")
+
+
+def test_missing_mesh(tmp_path: Path) -> None:
+    for filename in ("meshes/missing_link.stl", "package://nopkg/meshes/missing_link.stl"):
+        path = write(
+            tmp_path,
+            "meshy.urdf",
+            f"""<?xml version="1.0"?>
+<robot name="meshy">
+  <link name="base"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <link name="arm">
+    <collision><geometry><mesh filename="{filename}"/></geometry></collision>
+  </link>
+</robot>
+""",
+        )
+        with pytest.raises(RobotLoadError, match=re.escape(filename)) as info:
+            load_robot(path)
+        assert isinstance(info.value, PreviewctlError)
+
+
+def test_bad_configurations(planar4: Robot) -> None:
+    with pytest.raises(ConfigurationError, match=r"shape \(3,\).*\(4,\)") as info:
+        avoidance(planar4, np.zeros(3))
+    assert isinstance(info.value, PreviewctlError)
+    with pytest.raises(ConfigurationError, match=r"shape \(5, 3\)"):
+        evaluate(planar4, None, np.zeros((5, 3)))
+    with pytest.raises(ConfigurationError, match=r"shape \(2, 2, 4\)"):
+        avoidance(planar4, np.zeros((2, 2, 4)))
+    with pytest.raises(ConfigurationError, match=r"nan.*'joint2'"):
+        avoidance(planar4, [0.0, float("nan"), 0.0, 0.0])
+    Q = np.zeros((3, 4))
+    Q[2, 3] = np.inf
+    with pytest.raises(ConfigurationError, match=r"q\[2, 3\] = inf.*'joint4'"):
+        evaluate(planar4, None, Q)
+    with pytest.raises(ConfigurationError, match="numbers"):
+        avoidance(planar4, ["a", "b", "c", "d"])
+    # the caller's array is not touched
+    assert np.isinf(Q[2, 3])
+
+
+def test_bad_configuration_names_continuous_joint(kinova: Robot) -> None:
+    """kinova: q has 9 entries for 6 joints; the NaN is reported with the joint it belongs to."""
+    q = kinova.neutral()
+    for index in range(kinova.nq):
+        owner = next(
+            kinova.model.names[j]
+            for j in range(1, kinova.model.njoints)
+            if kinova.model.joints[j].idx_q <= index < kinova.model.joints[j].idx_q + kinova.model.joints[j].nq
+        )
+        bad = q.copy()
+        bad[index] = np.nan
+        with pytest.raises(ConfigurationError, match=re.escape(f"'{owner}'")):
+            avoidance(kinova, bad)
+    with pytest.raises(ConfigurationError, match=r"\(9,\)"):
+        avoidance(kinova, np.zeros(6))
+
+
+# ------------------------------------------------------------------------------ scenes
+
+
+SCENE = """
+[[obstacles]]
+name = "ball"
+shape = "sphere"
+radius = 0.2
+position = [1.0, 0.5]
+
+[[obstacles]]
+name = "crate"
+shape = "box"
+size = [0.2, 0.3, 0.4]
+position = [0.5, -0.5, 0.0]
+rpy = [0.0, 0.0, 0.5]
+
+[[obstacles]]
+name = "runner"
+shape = "sphere"
+radius = 0.1
+
+[obstacles.motion]
+type = "constant_velocity"
+position = [0.0, 1.0, 0.0]
+velocity = [0.5, 0.0, 0.0]
+"""
+
+
+def test_load_valid_scene(tmp_path: Path, planar4: Robot) -> None:
+    scene = load_scene(write(tmp_path, "scene.toml", SCENE))
+    assert scene.names == ("ball", "crate", "runner")
+    ball, crate, runner = scene.obstacles
+    assert ball.shape == previewctl.Sphere(0.2)
+    assert crate.shape == previewctl.Box((0.2, 0.3, 0.4))
+    assert runner.shape == previewctl.Sphere(0.1)
+    np.testing.assert_allclose(ball.placement(0.0).translation, [1.0, 0.5, 0.0])
+    np.testing.assert_allclose(ball.placement(3.0).translation, [1.0, 0.5, 0.0])
+    np.testing.assert_allclose(crate.placement(0.0).rotation, rot_z(0.5), atol=1e-12)
+    np.testing.assert_allclose(runner.placement(0.0).translation, [0.0, 1.0, 0.0])
+    np.testing.assert_allclose(runner.placement(2.0).translation, [1.0, 1.0, 0.0])
+    # the moving obstacle moves in the evaluation too
+    q = np.array([np.pi / 2, 0.0, 0.0, 0.0])  # arm along +y: x = 0, the runner starts on it
+    at0 = evaluate(planar4, scene, q, 0.0)
+    at2 = evaluate(planar4, scene, q, 2.0)
+    assert at0.collision[0]
+    assert not at2.collision[0]
+    assert at2.S[0] > 0 > at0.S[0]
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        ('[[obstacles]]\nname = "c"\nshape = "cone"\nradius = 0.1\n', r"'cone'.*sphere"),
+        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n', r"'colour'"),
+        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = -0.1\n', r"radius.*-0\.1"),
+        ('[[obstacles]]\nname = "c"\nshape = "box"\nsize = [0.1, 0.0, 0.1]\n', r"size.*0\.0"),
+        ('[[obstacles]]\nname = "c"\nshape = "mesh"\npath = "nope.stl"\n', r"nope\.stl"),
+        ('[[obstacles]\nname = "c"\n', r"not valid TOML"),
+        ('title = "x"\n[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\n', r"'title'"),
+        (
+            '[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\n'
+            '[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.2\n',
+            r"repeated: c",
+        ),
+        (
+            '[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\n[obstacles.motion]\ntype = "teleport"\n',
+            r"'teleport'",
+        ),
+    ],
+)
+def test_scene_errors(tmp_path: Path, body: str, match: str) -> None:
+    with pytest.raises(SceneError, match=match) as info:
+        load_scene(write(tmp_path, "bad.toml", body))
+    assert isinstance(info.value, PreviewctlError)
+
+
+CUBE_OBJ = "\n".join(
+    [f"v {x} {y} {z}" for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
+    + [
+        f"f {a} {b} {c}\nf {a} {c} {d}"
+        for a, b, c, d in ((1, 3, 4, 2), (5, 6, 8, 7), (1, 2, 6, 5), (3, 7, 8, 4), (1, 5, 7, 3), (2, 4, 8, 6))
+    ]
+)
+
+
+def test_mesh_obstacles_match_boxes(tmp_path: Path, planar4: Robot) -> None:
+    """A cube mesh (relative path, per-axis or scalar scale, exact or convex) == the same Box."""
+    write(tmp_path, "cube.obj", CUBE_OBJ + "\n")
+    scene = load_scene(
+        write(
+            tmp_path,
+            "scene.toml",
+            """
+[[obstacles]]
+name = "block"
+shape = "mesh"
+path = "cube.obj"
+scale = [0.1, 0.2, 0.3]
+position = [1.0, 0.6, 0.0]
+rpy = [0.0, 0.0, 0.3]
+
+[[obstacles]]
+name = "hull"
+shape = "mesh"
+path = "cube.obj"
+scale = 0.15
+convex = true
+position = [-1.0, 0.6, 0.0]
+""",
+        )
+    )
+    block, hull = scene.obstacles
+    assert block.shape == previewctl.Mesh(str(tmp_path / "cube.obj"), (0.1, 0.2, 0.3), False)
+    assert hull.shape == previewctl.Mesh(str(tmp_path / "cube.obj"), (0.15, 0.15, 0.15), True)
+    boxes = previewctl.Scene(
+        (
+            previewctl.Obstacle(
+                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
+            ),
+            previewctl.Obstacle(
+                "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.motion.Static(np.array([-1.0, 0.6, 0.0]))
+            ),
+        )
+    )
+    Q = np.random.default_rng(0).uniform(-np.pi, np.pi, size=(100, 4))
+    meshes, reference = evaluate(planar4, scene, Q), evaluate(planar4, boxes, Q, method="general")
+    np.testing.assert_array_equal(meshes.collision, reference.collision)
+    positive = reference.link_distances > 0
+    assert positive.mean() > 0.5
+    np.testing.assert_allclose(meshes.link_distances[positive], reference.link_distances[positive], atol=1e-6)
+
+
+def test_scene_file_missing(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match=r"absent\.toml"):
+        load_scene(tmp_path / "absent.toml")
+
+
+# ------------------------------------------------------------------------------ packaging
+
+
+def test_shipped_robots_dir() -> None:
+    assert (shipped_robots_dir() / "planar4.urdf").is_file()
+    assert "planar4" in shipped_robot_names()
+
+
+def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
+    """Build a wheel from a snapshot of the tree, unpack it elsewhere, load "planar4" from there."""
+    pytest.importorskip("hatchling")
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(REPO / "pyproject.toml", src)
+    for folder in ("previewctl", "robots", "scenarios"):
+        if (REPO / folder).is_dir():
+            shutil.copytree(REPO / folder, src / folder, ignore=shutil.ignore_patterns("__pycache__"))
+    if (REPO / "README.md").is_file():
+        shutil.copy(REPO / "README.md", src)
+    else:  # pyproject names a readme; its absence is not what this test is about
+        (src / "README.md").write_text("previewctl\n")
+    dist = tmp_path / "dist"
+    try:
+        build = subprocess.run(
+            [sys.executable, "-m", "hatchling", "build", "-t", "wheel", "-d", str(dist)],
+            cwd=src,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.skip("wheel build took more than a minute")
+    assert build.returncode == 0, build.stderr
+    (wheel,) = dist.glob("*.whl")
+    with zipfile.ZipFile(wheel) as archive:
+        assert "previewctl/robots/planar4.urdf" in archive.namelist()
+        archive.extractall(tmp_path / "site")
+    script = (
+        "import sys; sys.path.insert(0, sys.argv[1]);"
+        "import previewctl.robot as r;"
+        "robot = r.load_robot('planar4');"
+        "print(r.shipped_robots_dir()); print(robot.nq)"
+    )
+    try:
+        run = subprocess.run(
+            [sys.executable, "-I", "-c", script, str(tmp_path / "site")],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.skip("importing the installed package took more than a minute")
+    assert run.returncode == 0, run.stderr
+    shipped, nq = run.stdout.split()
+    assert Path(shipped).resolve() == (tmp_path / "site" / "previewctl" / "robots").resolve()
+    assert nq == "4"
