@@ -123,9 +123,34 @@ def _finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
+class ProgressBar:
+    """A one-line text progress bar on stderr, redrawn at most 10 times a second."""
+
+    def __init__(self, label: str = "", width: int = 30) -> None:
+        import time
+
+        self.label, self.width, self._clock = label, width, time.perf_counter
+        self.start, self.shown = self._clock(), -1.0
+
+    def update(self, fraction: float, t: float) -> None:
+        """Show ``fraction`` done at simulated time ``t`` [s]."""
+        now = self._clock()
+        if now - self.shown < 0.1 and fraction < 1.0:
+            return
+        self.shown = now
+        filled = round(self.width * fraction)
+        sys.stderr.write(f"\r{self.label}[{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:5.1f}%  "
+                         f"t = {t:6.2f} s  elapsed {now - self.start:6.1f} s")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        """End the line (if anything was drawn)."""
+        if self.shown >= 0:
+            sys.stderr.write("\n")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
-    import time
     from pathlib import Path
 
     from previewctl.scenario import load_scenario
@@ -135,33 +160,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     name = args.controller or scenario.controller.name
     out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"
-    width, start, shown = 30, time.perf_counter(), [-1.0]
-
-    def progress(fraction: float, t: float) -> None:
-        now = time.perf_counter()
-        if now - shown[0] < 0.1 and fraction < 1.0:
-            return
-        shown[0] = now
-        filled = round(width * fraction)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}%  "
-                         f"t = {t:6.2f} s  elapsed {now - start:6.1f} s")
-        sys.stderr.flush()
-
-    def end_bar() -> None:
-        if shown[0] >= 0:
-            sys.stderr.write("\n")
-
+    bar = ProgressBar()
     try:
-        result = simulate(scenario, name, progress=progress, stop_on_collision=not args.continue_after_collision,
+        result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
                           seed=args.seed)
-    except NotImplementedError as exc:
-        end_bar()
-        sys.stderr.write(f"previewctl: error: {exc}\n")
-        return EXIT_USAGE
-    except BaseException:
-        end_bar()
-        raise
-    end_bar()
+    finally:
+        bar.close()
     summary = result.summary()
     npz_path, json_path = save_run(result, out)
     figures = make_figures(result, scenario, out, gif=False if args.no_gif else None)
@@ -187,6 +191,51 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{'written':<26}{npz_path}, {json_path}")
     for figure in figures:
         print(f"{'':<26}{figure}")
+    return 0
+
+
+def cmd_paper(args: argparse.Namespace) -> int:
+    """Run the canonical planar scene with every controller: comparison table, figures, summary.json."""
+    from pathlib import Path
+
+    from previewctl.paper import PAPER_CONTROLLERS, run_paper
+    from previewctl.scenario import Scenario
+    from previewctl.simulate import RunResult
+    from previewctl.viz import make_figures
+
+    names = [n.strip() for n in args.controllers.split(",")] if args.controllers else list(PAPER_CONTROLLERS)
+    for name in names:
+        if name not in PAPER_CONTROLLERS:
+            raise PreviewctlError(f"--controllers: unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
+    out = Path(args.out)
+    bars: list[ProgressBar] = []
+
+    def progress(name: str):  # type: ignore[no-untyped-def]
+        if bars:
+            bars[-1].close()
+        bars.append(ProgressBar(f"{name:<9}"))
+        return bars[-1].update
+
+    def figures(name: str, scenario: Scenario, result: RunResult, folder: Path) -> None:
+        make_figures(result, scenario, folder, gif=False if args.no_gif else None)
+
+    try:
+        summaries = run_paper(out, controllers=names, seed=args.seed, progress=progress, after_run=figures)
+    finally:
+        if bars:
+            bars[-1].close()
+    print(f"\ncanonical planar scene (scenarios/paper_planar.toml), 50 s; figures and logs in {out}/<controller>/")
+    header = (f"{'controller':<10}{'collision-free':<30}{'max hand err':>13}{'min clear':>11}"
+              f"{'mean S':>9}{'min S':>9}{'max|qd|':>9}{'cycle med/max [ms]':>20}")
+    print(header)
+    print("-" * len(header))
+    for name, s in summaries.items():
+        verdict = (f"NO: t={s['collision_time']:.2f} s {s['collision_link']}" if s["collided"] else "yes")
+        clearance = "-" if s["min_clearance"] is None else f"{s['min_clearance'] * 1e3:.1f} mm"
+        print(f"{name:<10}{verdict:<30}{s['max_hand_error'] * 1e3:>10.2f} mm{clearance:>11}{s['mean_S']:>9.0f}"
+              f"{s['min_S']:>9.0f}{s['max_abs_qdot']:>9.3f}"
+              f"{s['cycle_time_median'] * 1e3:>11.2f} / {s['cycle_time_max'] * 1e3:.1f}")
+    print(f"written {out / 'summary.json'}")
     return 0
 
 
@@ -330,6 +379,20 @@ def build_parser() -> argparse.ArgumentParser:
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
     run.set_defaults(func=cmd_run)
+
+    paper = sub.add_parser(
+        "paper",
+        help="the paper's planar experiment with every controller (the main job)",
+        description="Run the canonical planar scene (scenarios/paper_planar.toml: planar4 tracing five 0.75 m "
+        "segments along an inverted staircase in 50 s, with a pillar trap) with none, gradient, single "
+        "(t~ = 10 s), multi (t~ = 5 s, k = 0.3, 0.65, 0.05) and reach; print the comparison table; write "
+        "each run's log and figures to OUT/<controller>/ and OUT/summary.json.",
+    )
+    paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
+    paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all five)")
+    paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
+    paper.set_defaults(func=cmd_paper)
 
     map_ = sub.add_parser(
         "map",

@@ -559,21 +559,15 @@ class PreviewController:
     Args:
         robot: the arm.
         params: gains and weights.
-        mode: ``"single"`` or ``"multi"`` (``"reach"`` is not built yet).
+        mode: ``"single"`` or ``"multi"`` (``"reach"`` is :class:`ReachController`).
         searches: one search per preview time (``p = 1`` for single, ``len(weights)`` for multi),
             each with ``step(target, t)``, ``peaks()`` and ``seed(q)``.
 
     Raises:
-        NotImplementedError: ``mode = "reach"``.
         ConfigurationError: wrong number of searches, unknown mode.
     """
 
     def __init__(self, robot: Robot, params: ControllerParams, mode: str, searches: Sequence[SearchLike]) -> None:
-        if mode == "reach":
-            raise NotImplementedError(
-                "reach: the route-of-peaks preview mode (paper Fig. 3) is not built yet; it needs the "
-                "1-step GA's peaks (previewctl.search) -- use 'single' or 'multi'"
-            )
         if mode not in ("single", "multi"):
             raise ConfigurationError(f"unknown preview mode {mode!r}; valid: single, multi, reach")
         self.name = mode
@@ -618,6 +612,165 @@ class PreviewController:
         return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())
 
 
+@dataclass(frozen=True)
+class Route:
+    """The chosen sequence of peaks of :class:`ReachController`, one per preview time.
+
+    Attributes:
+        nodes: ``(len, nq)`` configurations, level 1 first.
+        S: ``(len,)`` their AMSIP values.
+        complete: whether it reaches the last preview time (otherwise the longest feasible prefix).
+    """
+
+    nodes: Array
+    S: Array
+    complete: bool
+
+
+class ReachController:
+    """``reach``: the reachability sequence of the paper's Fig. 3.
+
+    At each camera frame every imaginary arm ``i`` (at ``t_i* = t + i t̃``) runs one GA generation;
+    its top-K distinct peaks with ``S > 0`` are the nodes of level ``i`` (a negative future node is
+    dropped, and every route through it with it). The current configuration is level 0. An edge
+    from node ``a`` (level ``i-1``, time ``t_a``) to node ``b`` (level ``i``, time ``t_a + t̃``) is
+    *feasible* when the arm can move from one to the other while its hand follows the path:
+
+    1. ``sweep_samples`` intermediate times ``tau`` split the move; at each, the genes are
+       interpolated between ``a``'s and ``b``'s (angles the short way round) and solved onto the
+       hand target ``r_d(tau)`` by the redundancy map; the elbow branch switches from ``a``'s to
+       ``b``'s at the middle sample (a switch is only continuous through a stretched elbow, so a
+       switch elsewhere fails the speed test below);
+    2. every such configuration is reachable and collision-free (``S >= 0``) with the scene at
+       ``tau``;
+    3. consecutive configurations differ by at most ``v_max_j (tau_k+1 - tau_k) velocity_scale``
+       per joint (the joint speed limits).
+
+    The route (one node per level) with the best total S over feasible edges is found by dynamic
+    programming (Viterbi); if no route reaches the last level, the one reaching furthest is taken.
+    Then eq. 21 is applied to the route's nodes: ``v = K_v Σ k_i (q_route_i ⊖ q)``. If not even
+    level 1 is reachable, the imaginary arms' best candidates are used, as in ``multi``.
+
+    Unlike plain eq. 21, whose targets are each time's own best (possibly on different, mutually
+    unreachable peaks), the targets here always form one sequence the arm can move through.
+    """
+
+    name = "reach"
+
+    def __init__(
+        self,
+        robot: Robot,
+        params: ControllerParams,
+        evaluator: Evaluator,
+        searches: Sequence[SearchLike],
+        redundancy: Any,
+        *,
+        sweep_samples: int = 6,
+    ) -> None:
+        self.robot, self.params, self.evaluator, self.redundancy = robot, params, evaluator, redundancy
+        self.weights = np.array(params.preview_weights("multi"))
+        if len(searches) != len(self.weights):
+            raise ConfigurationError(f"reach needs {len(self.weights)} searches (one per preview time), got {len(searches)}")
+        self.searches = tuple(searches)
+        self.sweep_samples = sweep_samples
+        self._gain = _gain_vector(params.gain, robot.nv, "gain")
+        self._speed = effective_velocity_limits(robot, params.velocity_scale)
+        self._route: Route | None = None
+        self._fallback: tuple[Array, Array] | None = None
+
+    @property
+    def route(self) -> Route | None:
+        """The route chosen at the last frame (``None`` before the first or when none was feasible)."""
+        return self._route
+
+    def _edges(self, starts: Array, ends: Array, t0: float, path: HandPath) -> NDArray[np.bool_]:
+        """Feasibility ``(len(starts), len(ends))`` of the moves between two levels starting at ``t0`` [s]."""
+        red = self.redundancy
+        genes_a, branch_a = red.genes_of(starts)
+        genes_b, branch_b = red.genes_of(ends)
+        periodic = np.asarray(getattr(red, "periodic", np.zeros(genes_a.shape[1], bool)))
+        delta = genes_b[None, :, :] - genes_a[:, None, :]
+        delta = np.where(periodic, (delta + np.pi) % (2 * np.pi) - np.pi, delta)
+        feasible = np.ones(delta.shape[:2], bool)
+        pairs = np.argwhere(feasible)
+        dtau = self.params.preview_time / (self.sweep_samples + 1)
+        previous = starts[pairs[:, 0]]
+        ok = np.ones(len(pairs), bool)
+        for k in range(1, self.sweep_samples + 2):
+            tau = t0 + k * dtau
+            genes = genes_a[pairs[:, 0]] + (k / (self.sweep_samples + 1)) * delta[pairs[:, 0], pairs[:, 1]]
+            if k == self.sweep_samples + 1:
+                Q, reachable = ends[pairs[:, 1]], np.ones(len(pairs), bool)
+            else:
+                branch = branch_a[pairs[:, 0]] if 2 * k <= self.sweep_samples + 1 else branch_b[pairs[:, 1]]
+                Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float), previous)
+                ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
+            steps = np.array([wrapped_difference(self.robot, a, b) for a, b in zip(previous, Q, strict=True)])
+            ok &= np.all(np.abs(steps) <= self._speed * dtau, axis=1)
+            previous = Q
+        feasible[pairs[~ok, 0], pairs[~ok, 1]] = False
+        return feasible
+
+    def _choose(self, t: float, q: Array, levels: list[tuple[Array, Array]], path: HandPath) -> Route | None:
+        """Viterbi over the levels: the feasible route with the best total S (or the longest prefix)."""
+        total = np.zeros(1)
+        nodes_prev = q[None, :]
+        back: list[NDArray[np.int_]] = []
+        reached: list[Array] = []
+        for i, (nodes, values) in enumerate(levels):
+            if not len(nodes):
+                break
+            feasible = self._edges(nodes_prev, nodes, t + i * self.params.preview_time, path)
+            score = np.where(feasible, total[:, None] + values[None, :], -np.inf)
+            best_prev = score.argmax(axis=0)
+            best = score.max(axis=0)
+            if not np.isfinite(best).any():
+                break
+            back.append(best_prev)
+            reached.append(best)
+            total, nodes_prev = best, nodes
+        if not back:
+            return None
+        last = int(np.argmax(reached[-1]))
+        chain = [last]
+        for pointers in reversed(back[1:]):
+            chain.append(int(pointers[chain[-1]]))
+        chain.reverse()
+        nodes = np.stack([levels[i][0][k] for i, k in enumerate(chain)])
+        S = np.array([levels[i][1][k] for i, k in enumerate(chain)])
+        return Route(nodes, S, complete=len(chain) == len(levels))
+
+    def _update(self, t: float, q: Array, path: HandPath) -> None:
+        if self._fallback is None:
+            for search in self.searches:
+                search.seed(np.array(q, dtype=float))
+        levels: list[tuple[Array, Array]] = []
+        best_q, best_S = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
+        for i, search in enumerate(self.searches):
+            t_i = t + (i + 1) * self.params.preview_time
+            best = search.step(np.asarray(path.position(t_i), dtype=float), t_i)
+            best_q[i], best_S[i] = np.asarray(best.q, dtype=float), float(best.S)
+            peaks = [c for c in search.peaks() if c.S > 0]
+            levels.append((np.array([c.q for c in peaks]).reshape(-1, self.robot.nq), np.array([c.S for c in peaks])))
+        self._fallback = (best_q, best_S)
+        self._route = self._choose(t, q, levels, path)
+
+    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
+        """Joint velocity [rad/s] for time ``t`` [s]."""
+        if state.frame_due or self._fallback is None:
+            self._update(t, q, state.path)
+        assert self._fallback is not None
+        targets, values = self._fallback
+        if self._route is not None:
+            n = len(self._route.nodes)
+            targets, values = targets.copy(), values.copy()
+            targets[:n], values[:n] = self._route.nodes, self._route.S
+        direction = np.zeros(self.robot.nv)
+        for k, target in zip(self.weights, targets, strict=True):
+            direction += k * wrapped_difference(self.robot, q, target)
+        return track(self.robot, t, q, state, self._gain * direction, self.params, targets.copy(), values.copy())
+
+
 SearchFactory = Callable[[int, np.random.Generator], SearchLike]
 
 
@@ -641,19 +794,22 @@ def make_controller(
 
     Raises:
         PreviewctlError: the GA module is not available.
-        NotImplementedError: ``reach``.
     """
     params = spec.params
     if spec.name == "none":
         return TrackingController(robot, params)
     if spec.name == "gradient":
         return GradientController(robot, evaluator, params)
-    if spec.name == "reach":
-        return PreviewController(robot, params, "reach", ())
-    count = len(params.preview_weights(spec.name))
+    mode = "multi" if spec.name == "reach" else spec.name
+    count = len(params.preview_weights(mode))
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)
     streams = rng.spawn(count)
-    return PreviewController(robot, params, spec.name, [factory(i, streams[i]) for i in range(count)])
+    searches = [factory(i, streams[i]) for i in range(count)]
+    if spec.name == "reach":
+        from previewctl.redundancy import redundancy_map
+
+        return ReachController(robot, params, evaluator, searches, redundancy_map(robot))
+    return PreviewController(robot, params, spec.name, searches)
 
 
 def _ga_factory(robot: Robot, evaluator: Evaluator, params: ControllerParams, mode: str) -> SearchFactory:
@@ -692,6 +848,8 @@ __all__ = [
     "ControllerSpec",
     "GradientController",
     "PreviewController",
+    "ReachController",
+    "Route",
     "TrackingController",
     "apply_limits",
     "check_preview_weights",

@@ -279,7 +279,7 @@ def _log_command(log: dict[str, Any], k: int, hand: Array, info: ControlInfo, qd
 # ------------------------------------------------------------------------------------ saving
 
 
-def _atomic_write(path: Path, write: Callable[[IO[bytes]], None]) -> None:
+def atomic_write(path: Path, write: Callable[[IO[bytes]], None]) -> None:
     """Write ``path`` through a temporary file in the same folder and ``os.replace``.
 
     On any failure the temporary file is removed and ``path`` is left as it was.
@@ -327,8 +327,8 @@ def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, 
     text = json.dumps(result.summary(), indent=2) + "\n"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        _atomic_write(npz_path, lambda handle: np.savez_compressed(handle, **arrays))
-        _atomic_write(json_path, lambda handle: _write_bytes(handle, text.encode("utf-8")))
+        atomic_write(npz_path, lambda handle: np.savez_compressed(handle, **arrays))
+        atomic_write(json_path, lambda handle: _write_bytes(handle, text.encode("utf-8")))
     except OSError as exc:
         raise PreviewctlError(f"cannot write the run to {str(folder)!r}: {exc}") from exc
     return npz_path, json_path

@@ -265,7 +265,8 @@ def test_volumes_at_stretched_arm_nonnegative_and_area_vanishes(planar4: Robot) 
 def test_volumes_at_hand_singularity_depend_on_approach(planar4: Robot) -> None:
     """Documented limitation: where J_n itself loses rank (stretched arm), N = I - J+ J gains a
     dimension and the limit of V_1, V_3 depends on the direction of approach (README, "Rank")."""
-    limits = [avoidance(planar4, 1e-7 * v).volumes for v in (np.array([0.0, 1.0, 0.0, 0.0]), np.array([0.0, 1.0, 1.0, 1.0]))]
+    directions = (np.array([0.0, 1.0, 0.0, 0.0]), np.array([0.0, 1.0, 1.0, 1.0]))
+    limits = [avoidance(planar4, 1e-7 * v).volumes for v in directions]
     assert abs(limits[0][0] - limits[1][0]) > 0.1
     assert np.all(np.isfinite(avoidance(planar4, np.zeros(4)).volumes))
 

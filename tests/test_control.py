@@ -18,6 +18,7 @@ from previewctl.control import (
     ControlState,
     GradientController,
     PreviewController,
+    ReachController,
     TrackingController,
     apply_limits,
     check_preview_weights,
@@ -26,6 +27,7 @@ from previewctl.control import (
     wrapped_difference,
 )
 from previewctl.errors import ConfigurationError, PreviewctlError
+from previewctl.redundancy import redundancy_map
 from previewctl.robot import Robot, load_robot
 from previewctl.scenario import Scenario, scenario_from_dict
 from previewctl.scene import Scene, scene_from_dict
@@ -330,9 +332,59 @@ def test_wrapped_difference_goes_the_short_way(planar: Robot) -> None:
     assert diff[0] == pytest.approx(2 * np.pi - 6.0)
 
 
-def test_reach_is_not_built_yet(planar: Robot) -> None:
-    with pytest.raises(NotImplementedError, match="reach"):
-        make_controller(ControllerSpec("reach"), planar, Evaluator(planar), np.random.default_rng(0))
+class FakePeaksGA(FakeGA):
+    """A fake search whose best (``step``) is ``best`` and whose peaks are ``peaks``."""
+
+    def __init__(self, best: FakeCandidate, peaks: list[FakeCandidate]) -> None:
+        super().__init__(best.q, best.S)
+        self.candidate, self._peaks = best, tuple(peaks)
+
+    def peaks(self) -> tuple[FakeCandidate, ...]:
+        return self._peaks
+
+
+def reach_setup(planar: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
+    """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5)
+    q = np.array(PLANAR_Q0)
+    searches, nears = [], []
+    for i, S_near in enumerate(near_S, start=1):
+        tip = path.position(0.5 * i)
+        near = planar_ik(planar, (0.6 + 0.02 * i, 1.0), tip, elbow=-1)
+        far = planar_ik(planar, (-2.0, 2.5), tip, elbow=1)  # > 2 rad away: beyond 1 rad/s over 0.5 s
+        best = FakeCandidate(np.zeros(2), 0, far, 1000.0)
+        searches.append(FakePeaksGA(best, [best, FakeCandidate(np.zeros(2), 1, near, S_near)]))
+        nears.append(near)
+    controller = ReachController(planar, params, Evaluator(planar), searches, redundancy_map(planar))
+    return controller, q, path, nears
+
+
+def test_reach_follows_a_reachable_route_not_each_times_best(planar: Robot) -> None:
+    controller, q, path, nears = reach_setup(planar, (100.0, 100.0))
+    _, info = controller.command(0.0, q, state_for(planar, q, path))
+    route = controller.route
+    assert route is not None and route.complete
+    np.testing.assert_allclose(route.nodes, np.array(nears), atol=1e-12)
+    np.testing.assert_allclose(route.S, [100.0, 100.0])
+    assert info.targets is not None
+    np.testing.assert_allclose(info.targets, np.array(nears), atol=1e-12)
+    # eq. 21 on the route: v = K_v sum k_i (q_i - q)
+    np.testing.assert_allclose(info.v, 0.5 * (nears[0] - q) + 0.5 * (nears[1] - q), atol=1e-9)
+
+
+def test_reach_drops_a_route_at_its_first_negative_node(planar: Robot) -> None:
+    controller, q, path, nears = reach_setup(planar, (100.0, -1.0))
+    controller.command(0.0, q, state_for(planar, q, path))
+    route = controller.route
+    assert route is not None and not route.complete  # level 2 has no reachable positive node
+    np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
+
+
+def test_make_controller_builds_reach_with_real_searches(planar: Robot) -> None:
+    controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar,
+                                 Evaluator(planar), np.random.default_rng(0))
+    assert isinstance(controller, ReachController) and len(controller.searches) == 3
 
 
 def test_missing_search_module_is_a_clear_error(planar: Robot, monkeypatch: pytest.MonkeyPatch) -> None:

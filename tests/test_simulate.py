@@ -282,8 +282,9 @@ def test_cli_default_out_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) ->
     assert (tmp_path / "out" / "tiny-none" / "S.png").is_file()
 
 
-def test_cli_reach_is_not_built_yet_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_runs_reach(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     scenario = Path(__file__).resolve().parent.parent / "scenarios" / "planar_free.toml"
-    assert main(["run", str(scenario), "--controller", "reach", "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("previewctl: error: reach:")
+    assert main(["run", str(scenario), "--controller", "reach", "--out", str(tmp_path / "o"), "--no-gif"]) == 0
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["controller"] == "reach" and not summary["collided"]
+    assert summary["max_hand_error"] < 2e-3

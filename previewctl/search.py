@@ -1,0 +1,565 @@
+"""Search of the redundancy space: global exploration (paper Table 3) and the 1-step GA (section 6).
+
+* :func:`explore` evaluates AMSIP over the whole redundancy space of a hand target. For a map with one
+  or two genes (planar4: ``q1, q2``) it is a dense grid, by default 1 deg over ``[0, 360)`` per
+  periodic gene, times every branch (planar4: 360 x 360 x 2 = 259,200 candidates), solved and
+  evaluated in one vectorised batch. Otherwise (more genes, e.g. the Newton map of a spatial arm) it
+  evaluates a randomly shifted Halton sequence of the genes. Unreachable candidates score
+  ``collision_value`` (< 0) and are not evaluated.
+* :class:`OneStepGA` runs one generation per call (one camera frame); its population persists between
+  calls, so it tracks the optimum while the target and the obstacles move.
+
+Peaks (distinct local maxima of S, the paper's Fig. 8) are reported by both. Distinctness is measured
+in joint space: the Euclidean norm of the joint-angle difference [rad], angles of full-turn joints
+compared modulo 2 pi.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.amsip import Evaluator
+from previewctl.errors import ConfigurationError, UnreachableTargetError
+from previewctl.redundancy import (
+    PlanarRedundancy,
+    RedundancyMap,
+    joint_angles,
+    parse_target,
+    redundancy_map,
+    score,
+    score_configurations,
+    wrap_angle,
+)
+from previewctl.robot import Robot
+
+Array = NDArray[np.float64]
+
+__all__ = ["Candidate", "Landscape", "OneStepGA", "explore", "gene_periodic", "halton", "joint_periodic"]
+
+_PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One point of the redundancy space, solved and scored.
+
+    Attributes:
+        genes: ``(g,)`` the map's genes of ``q`` [rad] (``genes_of(q)``; periodic genes wrapped to
+            ``[-pi, pi)``), so that ``solve(genes, branch)`` returns ``q``.
+        branch: the discrete branch (planar elbow: 0 for ``q_n >= 0``, 1 for ``q_n < 0``).
+        q: ``(nq,)`` configuration [rad].
+        S: AMSIP (``collision_value`` < 0 when colliding or unreachable).
+    """
+
+    genes: Array
+    branch: int
+    q: Array
+    S: float
+
+
+@dataclass(frozen=True)
+class Landscape:
+    """AMSIP over the redundancy space of one hand target at one time.
+
+    Attributes:
+        target: ``(3,)`` hand position [m] (z = 0 for a planar target).
+        t: time [s] at which the obstacles were placed.
+        method: ``"grid"`` or ``"samples"``.
+        axes: the grid axes, one ``(n_k,)`` array [rad] per gene (``()`` for samples).
+        S_map: ``(branches, n_1, ..., n_g)`` AMSIP on the grid (``None`` for samples).
+        genes: ``(N, g)`` every candidate's genes [rad]. Grid: the axis values (periodic ones in
+            ``[0, 2 pi)``), branch-major order, then the gene axes in C order. Samples: where reachable,
+            the genes of the solved configuration (``genes_of(q)``), else the sampled genes.
+        branch: ``(N,)`` their branches.
+        S: ``(N,)`` their AMSIP.
+        reachable: ``(N,)`` whether the hand reaches the target.
+        best: the candidate of largest S.
+        peaks: up to ``top_k`` distinct local maxima with ``S > 0``, best first.
+    """
+
+    target: Array
+    t: float
+    method: str
+    axes: tuple[Array, ...]
+    S_map: Array | None
+    genes: Array
+    branch: NDArray[np.int_]
+    S: Array
+    reachable: NDArray[np.bool_]
+    best: Candidate
+    peaks: tuple[Candidate, ...]
+
+
+# ---------------------------------------------------------------------------------- utilities
+
+
+def halton(count: int, dim: int, rng: np.random.Generator | None = None) -> Array:
+    """``count`` points of the ``dim``-dimensional Halton sequence in ``[0, 1)^dim``.
+
+    With ``rng`` the sequence gets a random shift modulo 1 (Cranley-Patterson rotation), which keeps
+    its low discrepancy and makes independent replicas.
+    """
+    if dim > len(_PRIMES):
+        raise ConfigurationError(f"halton supports up to {len(_PRIMES)} dimensions, got {dim}")
+    index = np.arange(1, count + 1)
+    out = np.zeros((count, dim))
+    for k in range(dim):
+        base, i, f = _PRIMES[k], index.copy(), np.ones(count)
+        while np.any(i > 0):
+            f /= base
+            out[:, k] += f * (i % base)
+            i //= base
+    if rng is not None:
+        out = (out + rng.random(dim)) % 1.0
+    return out
+
+
+def joint_periodic(robot: Robot) -> NDArray[np.bool_]:
+    """``(nv,)`` whether each joint coordinate is an angle that turns a full circle (compared mod 2 pi)."""
+    model = robot.model
+    periodic = np.zeros(robot.nv, dtype=bool)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        name = joint.shortname()
+        if joint.nq != joint.nv:
+            periodic[joint.idx_v : joint.idx_v + joint.nv] = True
+        elif name.startswith("JointModelR") and "Unbounded" not in name:
+            lo, hi = robot.lower_limits[joint.idx_q], robot.upper_limits[joint.idx_q]
+            periodic[joint.idx_v] = not (np.isfinite(lo) and np.isfinite(hi)) or hi - lo >= 2 * np.pi - 1e-9
+    return periodic
+
+
+def _joint_distance(A: Array, B: Array, periodic: NDArray[np.bool_]) -> Array:
+    """Distances ``(a, b)`` [rad] between joint-angle vectors ``A (a, nv)`` and ``B (b, nv)``."""
+    diff = A[:, None, :] - B[None, :, :]
+    diff = np.where(periodic, wrap_angle(diff), diff)
+    return np.sqrt(np.sum(diff * diff, axis=-1))
+
+
+def _distinct(order: NDArray[np.int_], angles: Array, periodic: NDArray[np.bool_], radius: float, k: int) -> list[int]:
+    """Greedy: walk ``order`` and keep the indices at least ``radius`` away from every kept one (up to k).
+
+    Each kept index suppresses its neighbours within ``radius`` in one vectorised distance computation.
+    """
+    kept: list[int] = []
+    order = np.asarray(order, dtype=int)
+    alive = np.ones(order.size, dtype=bool)
+    candidates = angles[order]
+    while len(kept) < k:
+        free = np.flatnonzero(alive)
+        if free.size == 0:
+            break
+        first = free[0]
+        kept.append(int(order[first]))
+        alive[free] = _joint_distance(candidates[first : first + 1], candidates[free], periodic)[0] >= radius
+    return kept
+
+
+def gene_periodic(redundancy: RedundancyMap) -> NDArray[np.bool_]:
+    """The map's ``periodic`` flags; all ``False`` for a map that does not declare them."""
+    g = int(np.asarray(redundancy.gene_lower).size)
+    return np.asarray(getattr(redundancy, "periodic", np.zeros(g, dtype=bool)), dtype=bool).reshape(g)
+
+
+def _candidate(
+    genes: Array, branch: NDArray[np.int_], Q: Array, S: Array, i: int, periodic: NDArray[np.bool_]
+) -> Candidate:
+    g = np.where(periodic, wrap_angle(genes[i]), genes[i])
+    return Candidate(g, int(branch[i]), Q[i].copy(), float(S[i]))
+
+
+def _check_positive_int(name: str, value: object, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ConfigurationError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _reach_check(redundancy: RedundancyMap, target: object, robot: Robot) -> None:
+    """Raise :class:`UnreachableTargetError` for a planar target beyond the arm's total reach."""
+    if isinstance(redundancy, PlanarRedundancy):
+        goal = parse_target(target, robot)
+        base = np.asarray(redundancy.chain.offsets[0])
+        dist = float(np.hypot(*(goal.position[:2] - base)))
+        if dist > redundancy.max_reach + redundancy.reach_tolerance or abs(goal.position[2]) > 1e-9:
+            raise UnreachableTargetError(
+                f"target {np.round(goal.position, 4).tolist()} [m] is out of reach of robot {robot.name!r}: "
+                f"{dist:.4f} m from the base, reach {redundancy.max_reach:.4f} m (in the plane z = 0)"
+            )
+
+
+# ----------------------------------------------------------------------------------- explore
+
+
+def _grid_axes(redundancy: RedundancyMap, resolution: float) -> tuple[Array, ...]:
+    axes = []
+    periodic = gene_periodic(redundancy)
+    for lo, hi, per in zip(redundancy.gene_lower, redundancy.gene_upper, periodic, strict=True):
+        if per:
+            count = max(1, round(2 * np.pi / resolution))
+            axes.append(np.arange(count) * (2 * np.pi / count))
+        else:
+            count = max(1, int(np.floor((hi - lo) / resolution + 1e-9)) + 1)
+            axes.append(lo + np.arange(count) * resolution)
+    return tuple(axes)
+
+
+def _grid_maxima(S_map: Array, periodic: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells of ``S_map (branches, n_1, ..., n_g)`` not below any of their (3^g - 1) grid neighbours."""
+    g = S_map.ndim - 1
+    is_max = S_map > 0
+    for offset in np.ndindex(*(3,) * g):
+        shift = tuple(o - 1 for o in offset)
+        if not any(shift):
+            continue
+        neighbour = S_map
+        for axis, (s, per) in enumerate(zip(shift, periodic, strict=True), start=1):
+            if s == 0:
+                continue
+            neighbour = np.roll(neighbour, -s, axis=axis)
+            if not per:  # no wrap: the rolled-in edge has no neighbour
+                edge = [slice(None)] * S_map.ndim
+                edge[axis] = slice(-1, None) if s > 0 else slice(0, 1)
+                neighbour = neighbour.copy()
+                neighbour[tuple(edge)] = -np.inf
+        is_max &= S_map >= neighbour
+    return is_max
+
+
+def explore(
+    robot: Robot,
+    evaluator: Evaluator,
+    target: object,
+    t: float = 0.0,
+    *,
+    resolution_deg: float = 1.0,
+    samples: int | None = None,
+    top_k: int = 4,
+    rng: np.random.Generator | None = None,
+    redundancy: RedundancyMap | None = None,
+    min_separation: float = 0.35,
+) -> Landscape:
+    """Global exploration of AMSIP over the redundancy space of ``target`` at time ``t`` [s].
+
+    Args:
+        robot: the arm.
+        evaluator: AMSIP evaluator (robot, scene, index, potential).
+        target: hand target (see :func:`previewctl.redundancy.parse_target`).
+        t: time [s] at which the obstacles are placed.
+        resolution_deg: grid step [deg] (maps with 1 or 2 genes).
+        samples: number of Halton samples of the genes for maps with more genes (default: 65,536 for the
+            vectorised planar map, 1,024 for the Newton map); ignored on a grid.
+        top_k: the most peaks to report.
+        rng: random shift of the Halton sequence (``None``: unshifted, deterministic).
+        redundancy: the map (default :func:`~previewctl.redundancy.redundancy_map`).
+        min_separation: least joint-space distance [rad] between two reported peaks.
+
+    Returns:
+        The landscape. On a grid, a peak is a cell not below any of its 8 neighbours (periodic genes
+        wrap around), then the peaks are taken best first, each at least ``min_separation`` from the
+        ones kept. With samples, a peak is a sample with no better sample within ``min_separation``.
+
+    Raises:
+        UnreachableTargetError: no candidate puts the hand on the target.
+        ConfigurationError: a bad option or target.
+    """
+    if not (np.isfinite(resolution_deg) and 0 < resolution_deg <= 90):
+        raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {resolution_deg!r}")
+    top_k = _check_positive_int("top_k", top_k)
+    if not (np.isfinite(min_separation) and min_separation >= 0):
+        raise ConfigurationError(f"min_separation must be >= 0 [rad], got {min_separation!r}")
+    red = redundancy if redundancy is not None else redundancy_map(robot)
+    goal = parse_target(target, robot)
+    _reach_check(red, target, robot)
+    g = int(np.asarray(red.gene_lower).size)
+    branches = int(red.branches)
+    if g <= 2:
+        axes = _grid_axes(red, np.radians(resolution_deg))
+        mesh = np.meshgrid(*axes, indexing="ij") if g else []
+        one = np.stack([m.ravel() for m in mesh], axis=1) if g else np.zeros((1, 0))
+        genes = np.tile(one, (branches, 1))
+        branch = np.repeat(np.arange(branches), one.shape[0])
+        method = "grid"
+    else:
+        count = samples if samples is not None else (65536 if isinstance(red, PlanarRedundancy) else 1024)
+        count = _check_positive_int("samples", count)
+        unit = halton(count, g, rng)
+        one = red.gene_lower + unit * (red.gene_upper - red.gene_lower)
+        genes = np.tile(one, (branches, 1))
+        branch = np.repeat(np.arange(branches), count)
+        axes = ()
+        method = "samples"
+    if method == "grid" and isinstance(red, PlanarRedundancy):
+        scored = score_configurations(evaluator, *red.solve_grid(axes, target), t)
+    else:
+        scored = score(evaluator, red, genes, branch, target, t)
+    if method == "samples" and scored.reachable.any():
+        genes = genes.copy()  # the sampled genes moved onto the manifold (identity for a closed form)
+        genes[scored.reachable], branch[scored.reachable] = red.genes_of(scored.Q[scored.reachable])
+    if not scored.reachable.any():
+        raise UnreachableTargetError(
+            f"target {np.round(goal.position, 4).tolist()} [m]: none of {genes.shape[0]} candidates of robot "
+            f"{robot.name!r} reaches it"
+        )
+    S = scored.S
+    best_i = int(np.argmax(np.where(scored.reachable, S, -np.inf)))
+
+    def candidate(i: int) -> Candidate:
+        # the map's genes of the solved configuration (for the Newton map: the projected genes)
+        solved, solved_branch = red.genes_of(scored.Q[i : i + 1])
+        return Candidate(solved[0], int(solved_branch[0]), scored.Q[i].copy(), float(S[i]))
+
+    best = candidate(best_i)
+    periodic = joint_periodic(robot)
+    if method == "grid":
+        S_map = S.reshape((branches, *(len(a) for a in axes)))
+        maxima = np.flatnonzero(_grid_maxima(S_map, gene_periodic(red)).ravel())
+        order = maxima[np.argsort(-S[maxima], kind="stable")]
+        picked = _distinct(np.arange(order.size), joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
+        kept = [int(order[k]) for k in picked]
+    else:
+        S_map = None
+        valid = np.flatnonzero(S > 0)
+        order = valid[np.argsort(-S[valid], kind="stable")][:5000]
+        angles = joint_angles(robot, scored.Q[order])
+        kept = []
+        for rank in range(order.size):
+            if len(kept) >= top_k:
+                break
+            if rank == 0 or _joint_distance(angles[rank : rank + 1], angles[:rank], periodic).min() >= min_separation:
+                kept.append(int(order[rank]))
+    peaks = tuple(candidate(i) for i in kept)
+    return Landscape(goal.position, float(t), method, axes, S_map, genes, branch, S, scored.reachable, best, peaks)
+
+
+# ------------------------------------------------------------------------------------- 1-step GA
+
+
+class OneStepGA:
+    """The 1-step genetic algorithm: one generation per call, the population kept between calls.
+
+    Each :meth:`step` breeds a new population from the previous one (whose fitness was measured at the
+    previous call), then evaluates the *whole* new population at the current target and time, so the
+    survivors are always judged against the current frame. Operators:
+
+    * elitism: the ``elite`` best individuals are copied unchanged; so are the stored peaks (below),
+      which keeps several distinct optima alive;
+    * immigrants: a fraction ``immigrants`` of fresh random individuals (new peaks can be found when an
+      obstacle moves);
+    * selection: tournaments of ``tournament`` individuals on S;
+    * crossover (probability ``crossover_rate``): blend crossover BLX-``blend`` per gene,
+      ``child = a + u (b - a)`` with ``u ~ U(-blend, 1 + blend)``; for periodic genes the difference is
+      taken on the circle (``wrap(b - a)``) and the child wrapped to ``[-pi, pi)``; bounded genes are
+      reflected into their bounds; the branch comes from a random parent;
+    * mutation: Gaussian on every gene with a per-child scale ``mutation_scale * 2^-u``,
+      ``u ~ U(0, 5)`` (log-uniform: large exploring jumps and fine local steps in each generation),
+      and a branch flip with probability ``branch_flip``;
+    * Lamarckian repair: a reachable individual's genes are replaced by the genes of its solved
+      configuration (a no-op for the planar map; for the Newton map, the next frame's projection starts
+      on the manifold and converges in a step or two);
+    * niching: after evaluation, the top ``top_k`` individuals at least ``niche_radius`` apart in
+      joint space are the peaks (:meth:`peaks`); they are re-injected as elites next generation.
+
+    Args:
+        robot: the arm.
+        evaluator: AMSIP evaluator.
+        redundancy: the redundancy map.
+        rng: the only source of randomness (seed it for reproducible runs).
+        population: individuals per generation (>= 4).
+        elite: individuals copied unchanged (>= 1).
+        mutation_scale: largest Gaussian mutation standard deviation [rad].
+        top_k: peaks kept.
+        niche_radius: least joint-space distance [rad] between two peaks.
+        immigrants: fraction of random individuals per generation, in [0, 0.5].
+        tournament: tournament size (>= 1).
+        crossover_rate: probability of crossover, in [0, 1].
+        blend: BLX ``alpha`` (>= 0).
+        branch_flip: probability of a branch flip, in [0, 1].
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        evaluator: Evaluator,
+        redundancy: RedundancyMap,
+        rng: np.random.Generator,
+        *,
+        population: int = 64,
+        elite: int = 2,
+        mutation_scale: float = 0.25,
+        top_k: int = 4,
+        niche_radius: float = 0.35,
+        immigrants: float = 0.1,
+        tournament: int = 2,
+        crossover_rate: float = 0.9,
+        blend: float = 0.5,
+        branch_flip: float = 0.1,
+    ) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise ConfigurationError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        self.population = _check_positive_int("population", population, 4)
+        self.elite = _check_positive_int("elite", elite)
+        self.top_k = _check_positive_int("top_k", top_k)
+        self.tournament = _check_positive_int("tournament", tournament)
+        if self.elite + self.top_k >= self.population:
+            raise ConfigurationError(
+                f"elite + top_k must be below population: {self.elite} + {self.top_k} >= {self.population}"
+            )
+        for name, value, lo, hi in (
+            ("mutation_scale", mutation_scale, 0.0, np.inf),
+            ("niche_radius", niche_radius, 0.0, np.inf),
+            ("immigrants", immigrants, 0.0, 0.5),
+            ("crossover_rate", crossover_rate, 0.0, 1.0),
+            ("blend", blend, 0.0, np.inf),
+            ("branch_flip", branch_flip, 0.0, 1.0),
+        ):
+            if not (np.isfinite(value) and lo <= value <= hi):
+                raise ConfigurationError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
+        self.robot, self.evaluator, self.redundancy, self.rng = robot, evaluator, redundancy, rng
+        self.mutation_scale, self.niche_radius = float(mutation_scale), float(niche_radius)
+        self.immigrants, self.crossover_rate = float(immigrants), float(crossover_rate)
+        self.blend, self.branch_flip = float(blend), float(branch_flip)
+        self._lower = np.asarray(redundancy.gene_lower, dtype=float)
+        self._upper = np.asarray(redundancy.gene_upper, dtype=float)
+        self._gene_periodic = gene_periodic(redundancy)
+        self._joint_periodic = joint_periodic(robot)
+        self._lamarck = not isinstance(redundancy, PlanarRedundancy)
+        self.g = int(self._lower.size)
+        self.generation = 0
+        self._genes = np.zeros((0, self.g))
+        self._branch = np.zeros(0, dtype=int)
+        self._S = np.zeros(0)
+        self._Q = np.zeros((0, robot.nq))
+        self._peaks: tuple[Candidate, ...] = ()
+        self._pending_genes = np.zeros((0, self.g))
+        self._pending_branch = np.zeros(0, dtype=int)
+
+    # ------------------------------------------------------------------------------- state
+
+    @property
+    def best(self) -> Candidate:
+        """The best individual of the last evaluated generation.
+
+        Raises:
+            ConfigurationError: before the first :meth:`step`.
+        """
+        if self._S.size == 0:
+            raise ConfigurationError("OneStepGA.best is only defined after the first step()")
+        return _candidate(self._genes, self._branch, self._Q, self._S, int(np.argmax(self._S)), self._gene_periodic)
+
+    def peaks(self) -> tuple[Candidate, ...]:
+        """Up to ``top_k`` distinct optima (at least ``niche_radius`` apart, ``S > 0``), best first."""
+        return self._peaks
+
+    @property
+    def population_genes(self) -> Array:
+        """``(P, g)`` genes of the current population (a copy)."""
+        return self._genes.copy()
+
+    @property
+    def population_S(self) -> Array:  # noqa: N802 -- the paper's symbol S
+        """``(P,)`` AMSIP of the current population at the last step's target and time (a copy)."""
+        return self._S.copy()
+
+    def seed(self, q: Array) -> None:
+        """Inject configuration(s) ``(nq,)`` or ``(B, nq)`` (e.g. the current arm) into the next generation.
+
+        They replace offspring (or random initial individuals) at the next :meth:`step`; at most
+        ``population - elite - top_k`` are kept.
+        """
+        Q, _ = self.robot.check_configurations(q)
+        genes, branch = self.redundancy.genes_of(Q)
+        self._pending_genes = np.concatenate([self._pending_genes, genes])
+        self._pending_branch = np.concatenate([self._pending_branch, branch])
+
+    # ---------------------------------------------------------------------------- operators
+
+    def _random(self, count: int) -> tuple[Array, NDArray[np.int_]]:
+        genes = self._lower + self.rng.random((count, self.g)) * (self._upper - self._lower)
+        return genes, self.rng.integers(0, self.redundancy.branches, count)
+
+    def _repair(self, genes: Array) -> Array:
+        """Wrap periodic genes, reflect bounded ones into their bounds."""
+        span = self._upper - self._lower
+        reflected = np.abs((genes - self._lower) % (2 * span) - span)
+        bounded = self._upper - reflected
+        return np.where(self._gene_periodic, wrap_angle(genes), bounded)
+
+    def _offspring(self, count: int) -> tuple[Array, NDArray[np.int_]]:
+        rng, P = self.rng, self._S.size
+        contenders = rng.integers(0, P, (2, count, self.tournament))
+        winners = np.take_along_axis(contenders, np.argmax(self._S[contenders], axis=-1)[..., None], -1)[..., 0]
+        a, b = self._genes[winners[0]], self._genes[winners[1]]
+        diff = np.where(self._gene_periodic, wrap_angle(b - a), b - a)
+        u = rng.uniform(-self.blend, 1.0 + self.blend, (count, self.g))
+        cross = rng.random(count) < self.crossover_rate
+        child = np.where(cross[:, None], a + u * diff, a)
+        from_b = cross & (rng.random(count) < 0.5)
+        branch = np.where(from_b, self._branch[winners[1]], self._branch[winners[0]])
+        sigma = self.mutation_scale * 2.0 ** -rng.uniform(0.0, 5.0, count)
+        child = child + sigma[:, None] * rng.standard_normal((count, self.g))
+        if self.redundancy.branches > 1:
+            flip = rng.random(count) < self.branch_flip
+            other = (branch + rng.integers(1, self.redundancy.branches, count)) % self.redundancy.branches
+            branch = np.where(flip, other, branch)
+        return self._repair(child), branch.astype(int)
+
+    def _next_population(self) -> tuple[Array, NDArray[np.int_]]:
+        P = self.population
+        pending_g, pending_b = self._pending_genes, self._pending_branch
+        if self._S.size == 0:
+            fill = max(P - pending_g.shape[0], 0)
+            unit = halton(fill, self.g, self.rng) if self.g else np.zeros((fill, 0))
+            genes = np.concatenate([pending_g, self._lower + unit * (self._upper - self._lower)])[:P]
+            branch = np.concatenate([pending_b, self.rng.integers(0, self.redundancy.branches, fill)])[:P]
+            return self._repair(genes), branch.astype(int)
+        elite = np.argsort(-self._S, kind="stable")[: self.elite]
+        parts_g = [self._genes[elite]]
+        parts_b = [self._branch[elite]]
+        fresh = [
+            p for p in self._peaks
+            if not any(np.array_equal(p.genes, self._genes[i]) and p.branch == self._branch[i] for i in elite)
+        ]
+        if fresh:
+            parts_g.append(np.array([p.genes for p in fresh]).reshape(len(fresh), self.g))
+            parts_b.append(np.array([p.branch for p in fresh], dtype=int))
+        room = P - sum(len(p) for p in parts_b)
+        parts_g.append(pending_g[:room])
+        parts_b.append(pending_b[:room])
+        room -= min(room, pending_g.shape[0])
+        n_imm = min(room, round(self.immigrants * P))
+        imm_g, imm_b = self._random(n_imm)
+        child_g, child_b = self._offspring(room - n_imm)
+        genes = np.concatenate([*parts_g, imm_g, child_g])
+        branch = np.concatenate([*parts_b, imm_b, child_b]).astype(int)
+        return genes, branch
+
+    # -------------------------------------------------------------------------------- step
+
+    def step(self, target: object, t: float) -> Candidate:
+        """Run exactly one generation at hand target ``target`` and time ``t`` [s].
+
+        Returns:
+            The best individual of the new generation, evaluated at ``(target, t)``. Thanks to elitism
+            it is the previous best re-evaluated, unless a better individual was found. Its ``S`` is
+            negative if nothing in the population reaches the target without collision.
+        """
+        genes, branch = self._next_population()
+        self._pending_genes, self._pending_branch = np.zeros((0, self.g)), np.zeros(0, dtype=int)
+        scored = score(self.evaluator, self.redundancy, genes, branch, target, t)
+        if self._lamarck and scored.reachable.any():
+            solved, solved_branch = self.redundancy.genes_of(scored.Q[scored.reachable])
+            genes = genes.copy()
+            genes[scored.reachable], branch[scored.reachable] = solved, solved_branch
+        self._genes, self._branch, self._S, self._Q = genes, branch, scored.S, scored.Q
+        self.generation += 1
+        valid = np.flatnonzero(self._S > 0)
+        order = valid[np.argsort(-self._S[valid], kind="stable")]
+        angles = joint_angles(self.robot, self._Q[order]) if order.size else np.zeros((0, self.robot.nv))
+        kept = _distinct(np.arange(order.size), angles, self._joint_periodic, self.niche_radius, self.top_k)
+        self._peaks = tuple(
+            _candidate(genes, branch, self._Q, self._S, int(order[k]), self._gene_periodic) for k in kept
+        )
+        return self.best

@@ -1,0 +1,61 @@
+"""The canonical planar scene end to end: `previewctl paper` and a short preview run."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from previewctl.cli import main
+from previewctl.paper import PAPER_CONTROLLERS, canonical_scenario, with_controller
+from previewctl.simulate import simulate
+
+
+def test_canonical_scene_matches_the_paper_numbers() -> None:
+    scenario = canonical_scenario()
+    waypoints = np.asarray(scenario.path.waypoints)
+    np.testing.assert_allclose(waypoints[0], [0.10, 1.40])  # A
+    np.testing.assert_allclose(np.linalg.norm(np.diff(waypoints, axis=0), axis=1), 0.75)  # five 0.75 m segments
+    assert len(waypoints) == 6 and scenario.path.duration == 50.0
+    np.testing.assert_allclose(scenario.path.waypoint_times(), [0, 10, 20, 30, 40, 50])
+    assert scenario.robot.name == "planar4"
+
+
+def test_paper_controllers_use_the_paper_parameters() -> None:
+    scenario = canonical_scenario()
+    single = with_controller(scenario, "single").controller.params
+    multi = with_controller(scenario, "multi").controller.params
+    assert single.preview_time == 10.0 and single.preview_weights("single") == (1.0,)
+    assert multi.preview_time == 5.0 and multi.preview_weights("multi") == (0.3, 0.65, 0.05)
+    with pytest.raises(Exception, match="unknown controller 'fast'"):
+        with_controller(scenario, "fast")
+
+
+def test_paper_command_runs_the_canonical_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Plain tracking keeps the start configuration's elbow-right family and hits the trap."""
+    out = tmp_path / "paper"
+    assert main(["paper", "--controllers", "none", "--out", str(out), "--no-gif"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert list(summary) == ["none"]
+    none = summary["none"]
+    assert none["collided"] and none["collision_link"] == "link3"
+    assert 28.0 < none["collision_time"] < 30.5  # link 3 meets the corner at C as the hand nears D
+    assert none["max_hand_error"] < 1e-3
+    assert (out / "none" / "run.npz").is_file() and (out / "none" / "strobe.png").is_file()
+    table = capsys.readouterr().out
+    assert "none" in table and "link3" in table
+    assert set(PAPER_CONTROLLERS) == {"none", "gradient", "single", "multi", "reach"}
+
+
+def test_short_multi_preview_run_tracks_without_collision() -> None:
+    """The first 5 s of the paper scene with three-preview control: on the path, no contact."""
+    scenario = with_controller(canonical_scenario(), "multi")
+    short = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=5.0))
+    result = simulate(short, "multi")
+    summary = result.summary()
+    assert not summary["collided"]
+    assert summary["max_hand_error"] < 2e-3
+    assert summary["min_S"] > 0 and summary["max_qdot_ratio"] <= 1.0 + 1e-9
