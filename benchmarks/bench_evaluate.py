@@ -34,7 +34,7 @@ def naive_amsip(robot: Robot, scene: pc.Scene, Q: np.ndarray) -> np.ndarray:
         J = pin.getFrameJacobian(model, data, robot.tip_frame_id, frame)[robot.task_rows]
         N = np.eye(robot.nv) - np.linalg.pinv(J) @ J
         E = 0.0
-        for fid, p in zip(robot.control_frame_ids, robot.structural_ranks):
+        for fid, p in zip(robot.control_frame_ids, robot.structural_ranks, strict=True):
             M = pin.getFrameJacobian(model, data, fid, frame)[robot.point_rows] @ N
             E += unit_ball_volume(p) * np.prod(np.linalg.svd(M, compute_uv=False)[:p]) / 0.01**p
         d = clearance.per_link(clearance.pair_distances(data)[None])[0]
@@ -72,7 +72,8 @@ def main() -> None:
     print(f"{'case':<44}{'configs/s':>12}{'naive/s':>10}{'ratio':>8}")
 
     robot = pc.load_robot("planar4")
-    for label, scene in (("planar4 vectorised, no obstacle", pc.Scene()), ("planar4 vectorised, 3 obstacles", planar_scene())):
+    cases = (("planar4 vectorised, no obstacle", pc.Scene()), ("planar4 vectorised, 3 obstacles", planar_scene()))
+    for label, scene in cases:
         ev = pc.Evaluator(robot, scene)
         Q = rng.uniform(-np.pi, np.pi, (big, 4))
         fast = rate(lambda: ev(Q), big, repeats)  # noqa: B023

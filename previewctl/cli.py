@@ -46,13 +46,14 @@ def cmd_robots(args: argparse.Namespace) -> int:
     for name in names:
         try:
             robot = load_robot(name)
-        except Exception as exc:  # noqa: BLE001 -- listing: a robot that fails is reported, not fatal
+        except Exception as exc:  # listing: a robot that fails to load is reported, not fatal
             if args.verbose:
                 sys.stderr.write(f"{name}: does not load ({exc})\n")
             continue
         rows.append((name, robot.nv, robot.task, robot.tip_frame, len(robot.control_points)))
     if args.json:
-        print(json.dumps([dict(zip(("name", "dof", "task", "tip", "control_points"), r)) for r in rows], indent=2))
+        keys = ("name", "dof", "task", "tip", "control_points")
+        print(json.dumps([dict(zip(keys, r, strict=True)) for r in rows], indent=2))
     else:
         print(f"{'robot':<16}{'dof':>4}  {'task':<9}{'tip frame':<28}control points")
         for name, nv, task, tip, k in rows:
@@ -104,7 +105,8 @@ def cmd_index(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
-    print(f"robot {robot.name}  q = {np.array2string(q, precision=4)} [rad]  hand at {np.round(ev.tip_position[0], 4)} [m]")
+    hand = np.round(ev.tip_position[0], 4)
+    print(f"robot {robot.name}  q = {np.array2string(q, precision=4)} [rad]  hand at {hand} [m]")
     print(f"{'control point':<22}{'rank':>5}{'p':>3}  {'singular values [m/rad]':<30}{'V_i [m^p]':>12}")
     for row in report["control_points"]:
         sv = ", ".join(f"{s:.4f}" for s in row["singular_values"])
@@ -353,7 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Print the per-control-point avoidance table (rank, singular values, volume V_i), "
         "the per-link clearance and S = E + U for one configuration.",
     )
-    index.add_argument("--robot", default="planar4", help="URDF path, shipped or example-robot-data name (default planar4)")
+    index.add_argument("--robot", default="planar4",
+                       help="URDF path, shipped or example-robot-data name (default planar4)")
     index.add_argument("--q", required=True, help="configuration, comma-separated [rad], e.g. 1.2,1.8,-2.9,1.5")
     index.add_argument("--degrees", action="store_true", help="read --q in degrees")
     index.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")

@@ -670,7 +670,9 @@ class ReachController:
         self.robot, self.params, self.evaluator, self.redundancy = robot, params, evaluator, redundancy
         self.weights = np.array(params.preview_weights("multi"))
         if len(searches) != len(self.weights):
-            raise ConfigurationError(f"reach needs {len(self.weights)} searches (one per preview time), got {len(searches)}")
+            raise ConfigurationError(
+                f"reach needs {len(self.weights)} searches (one per preview time), got {len(searches)}"
+            )
         self.searches = tuple(searches)
         self.sweep_samples = sweep_samples
         self._gain = _gain_vector(params.gain, robot.nv, "gain")

@@ -14,7 +14,6 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Union
 
 import coal
 import numpy as np
@@ -145,7 +144,7 @@ class Mesh:
         return mesh
 
 
-Shape = Union[Sphere, Box, Capsule, Cylinder, Halfspace, Plane, Mesh]
+Shape = Sphere | Box | Capsule | Cylinder | Halfspace | Plane | Mesh
 
 
 @dataclass(frozen=True)
@@ -197,7 +196,7 @@ def _shape_from_dict(where: str, kind: str, spec: Mapping[str, object], base_dir
         return Sphere(_positive(f"{where}.radius", spec.get("radius")))
     if kind == "box":
         size = _vector(f"{where}.size", spec.get("size"))
-        for axis, value in zip("xyz", size):
+        for axis, value in zip("xyz", size, strict=True):
             _positive(f"{where}.size.{axis}", value)
         return Box(size)  # type: ignore[arg-type]
     if kind in ("capsule", "cylinder"):
@@ -263,7 +262,9 @@ def obstacle_from_dict(spec: Mapping[str, object], where: str, base_dir: Path = 
     return Obstacle(name, shape, motion)
 
 
-def scene_from_dict(obstacles: Sequence[Mapping[str, object]], where: str = "obstacles", base_dir: Path = Path(".")) -> Scene:
+def scene_from_dict(
+    obstacles: Sequence[Mapping[str, object]], where: str = "obstacles", base_dir: Path = Path(".")
+) -> Scene:
     """Build a scene from a list of obstacle tables (``[[obstacles]]`` in TOML)."""
     if not isinstance(obstacles, (list, tuple)):
         raise SceneError(f"{where} must be a list of tables ([[{where}]]), got {obstacles!r}")
@@ -307,7 +308,8 @@ class Clearance:
         n_robot = len(self._link_of_geom)
         self._obstacle_ids = []
         for obstacle in scene.obstacles:
-            obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), obstacle.shape.geometry())
+            shape = obstacle.shape.geometry()
+            obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), shape)
             self._obstacle_ids.append(self.geometry.addGeometryObject(obj))
         pair_links, pair_obstacles = [], []
         for g in range(n_robot):
@@ -329,7 +331,7 @@ class Clearance:
     def set_time(self, t: float) -> None:
         """Move the obstacles to their placements at time ``t`` [s]."""
         self._time = float(t)
-        for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids):
+        for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
             self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
 
     def pair_distances(self, data: pin.Data) -> Array:

@@ -1,0 +1,51 @@
+"""Control-cycle time of multi-preview control (p = 3, population 64), set against the 33 ms frame.
+
+A cycle that falls on a camera frame runs one GA generation per imaginary arm (three here); the
+others only apply eq. 19 with the last targets. Both are reported: median and worst over the run.
+
+Run: ``python benchmarks/bench_control.py [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import numpy as np
+
+from previewctl.paper import canonical_scenario, shipped_scenarios_dir, with_controller
+from previewctl.scenario import Scenario, load_scenario
+from previewctl.simulate import simulate
+
+FRAME_MS = 33.0
+
+
+def multi(scenario: Scenario, duration: float) -> Scenario:
+    """``scenario`` with three-preview control (the paper's weights) for ``duration`` [s]."""
+    timed = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=duration))
+    return with_controller(timed, "multi")
+
+
+def report(label: str, scenario: Scenario) -> None:
+    result = simulate(scenario, "multi")
+    cycle = np.asarray(result.cycle_time) * 1e3
+    frames = np.asarray(result.frame_due, dtype=bool)
+    for kind, mask in (("frame cycles", frames), ("other cycles", ~frames)):
+        if mask.any():
+            c = cycle[mask]
+            print(f"{label:<34}{kind:<14}{np.median(c):>9.2f}{c.max():>9.2f}{100 * np.median(c) / FRAME_MS:>9.0f}%")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="shorter runs (a smoke test)")
+    args = parser.parse_args()
+    duration = 2.0 if args.quick else 10.0
+    print(f"{'scene (multi, p = 3, population 64)':<34}{'cycles':<14}{'median':>9}{'worst':>9}{'of 33ms':>10}")
+    report("planar4, paper_planar", multi(canonical_scenario(), duration))
+    report("panda (convex), panda_crossing", multi(load_scenario(shipped_scenarios_dir() / "panda_crossing.toml"),
+                                                   duration))
+
+
+if __name__ == "__main__":
+    main()
