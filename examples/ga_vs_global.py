@@ -1,8 +1,9 @@
 """The paper's Tables 2-3: the 1-step GA against global exploration at six hand positions A-F.
 
 The canonical planar path of the paper (section 7): A = (0.10, 1.40) m, then five 0.75 m segments
-A -> B -> C -> D -> E -> F (here: right, down, right, down, right). The scene is kept simple: a table
-(a box) under the path. For every position the hand is held still; the global optimum comes from the
+A -> B -> C -> D -> E -> F (right, down, right, down, right), in the canonical scene
+``scenarios/paper_planar.toml`` (the inverted staircase and the pillar). For every position the hand
+is held still at the time the path passes it; the global optimum comes from the
 1 deg grid over (q1, q2) x both elbow branches; the GA (population 64) runs one generation per frame
 and its best after 1, 5 and 30 frames is compared with it:
 
@@ -21,13 +22,12 @@ import argparse
 import numpy as np
 
 from previewctl.amsip import Evaluator
-from previewctl.motion import Static
+from previewctl.paper import canonical_scenario
 from previewctl.redundancy import redundancy_map, wrap_angle
-from previewctl.robot import load_robot
-from previewctl.scene import Box, Obstacle, Scene
 from previewctl.search import OneStepGA, explore
 
-PATH = np.array([[0.10, 1.40], [0.85, 1.40], [0.85, 0.65], [1.60, 0.65], [1.60, -0.10], [2.35, -0.10]])
+SCENARIO = canonical_scenario()
+PATH = np.asarray(SCENARIO.path.waypoints)
 FRAMES = (1, 5, 30)
 
 
@@ -37,9 +37,8 @@ def main() -> None:
     parser.add_argument("--population", type=int, default=64, help="GA population (default 64)")
     args = parser.parse_args()
 
-    robot = load_robot("planar4")
-    scene = Scene((Obstacle("table", Box((1.2, 0.4, 0.4)), Static(np.array([1.3, -0.55, 0.0]))),))
-    evaluator = Evaluator(robot, scene)
+    robot = SCENARIO.robot
+    evaluator = Evaluator(robot, SCENARIO.scene, SCENARIO.index, SCENARIO.potential)
     redundancy = redundancy_map(robot)
 
     header = ["pos", "hand [m]", "global q1, q2 [deg] (elbow)", "S_max"]
