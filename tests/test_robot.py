@@ -512,6 +512,7 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
     (wheel,) = dist.glob("*.whl")
     with zipfile.ZipFile(wheel) as archive:
         assert "previewctl/robots/planar4.urdf" in archive.namelist()
+        assert "previewctl/scenarios/paper_planar.toml" in archive.namelist()
         archive.extractall(tmp_path / "site")
     script = (
         "import sys; sys.path.insert(0, sys.argv[1]);"
