@@ -227,14 +227,14 @@ def cmd_paper(args: argparse.Namespace) -> int:
         if bars:
             bars[-1].close()
     print(f"\ncanonical planar scene (scenarios/paper_planar.toml), 50 s; figures and logs in {out}/<controller>/")
-    header = (f"{'controller':<10}{'collision-free':<30}{'max hand err':>13}{'min clear':>11}"
+    header = (f"{'controller':<11}{'collision-free':<30}{'max hand err':>13}{'min clear':>11}"
               f"{'mean S':>9}{'min S':>9}{'max|qd|':>9}{'cycle med/max [ms]':>20}")
     print(header)
     print("-" * len(header))
     for name, s in summaries.items():
         verdict = (f"NO: t={s['collision_time']:.2f} s {s['collision_link']}" if s["collided"] else "yes")
         clearance = "-" if s["min_clearance"] is None else f"{s['min_clearance'] * 1e3:.1f} mm"
-        print(f"{name:<10}{verdict:<30}{s['max_hand_error'] * 1e3:>10.2f} mm{clearance:>11}{s['mean_S']:>9.0f}"
+        print(f"{name:<11}{verdict:<30}{s['max_hand_error'] * 1e3:>10.2f} mm{clearance:>11}{s['mean_S']:>9.0f}"
               f"{s['min_S']:>9.0f}{s['max_abs_qdot']:>9.3f}"
               f"{s['cycle_time_median'] * 1e3:>11.2f} / {s['cycle_time_max'] * 1e3:.1f}")
     print(f"written {out / 'summary.json'}")

@@ -620,11 +620,13 @@ class Route:
         nodes: ``(len, nq)`` configurations, level 1 first.
         S: ``(len,)`` their AMSIP values.
         complete: whether it reaches the last preview time (otherwise the longest feasible prefix).
+        lead: ``(nq,)`` the planned configuration one sweep step ahead on the move to ``nodes[0]``.
     """
 
     nodes: Array
     S: Array
     complete: bool
+    lead: Array
 
 
 class ReachController:
@@ -648,11 +650,15 @@ class ReachController:
 
     The route (one node per level) with the best total S over feasible edges is found by dynamic
     programming (Viterbi); if no route reaches the last level, the one reaching furthest is taken.
-    Then eq. 21 is applied to the route's nodes: ``v = K_v Σ k_i (q_route_i ⊖ q)``. If not even
-    level 1 is reachable, the imaginary arms' best candidates are used, as in ``multi``.
+    The arm then follows the planned move toward the route's first node: ``v = (q_lead ⊖ q) / dtau``,
+    ``q_lead`` being the move's first sample (``dtau = t̃ / (sweep_samples + 1)`` ahead), re-planned
+    at every frame (receding horizon). If not even level 1 is reachable, eq. 21 on the imaginary
+    arms' best candidates is used, as in ``multi``.
 
     Unlike plain eq. 21, whose targets are each time's own best (possibly on different, mutually
-    unreachable peaks), the targets here always form one sequence the arm can move through.
+    unreachable peaks) and whose null-space pull toward a configuration on the other elbow branch
+    does not lead through the stretched elbow, the arm here follows a move that was checked to be
+    on the path, collision-free and within the speed limits.
     """
 
     name = "reach"
@@ -677,6 +683,7 @@ class ReachController:
         self.sweep_samples = sweep_samples
         self._gain = _gain_vector(params.gain, robot.nv, "gain")
         self._speed = effective_velocity_limits(robot, params.velocity_scale)
+        self._sweep_step = params.preview_time / (sweep_samples + 1)
         self._route: Route | None = None
         self._fallback: tuple[Array, Array] | None = None
 
@@ -685,8 +692,9 @@ class ReachController:
         """The route chosen at the last frame (``None`` before the first or when none was feasible)."""
         return self._route
 
-    def _edges(self, starts: Array, ends: Array, t0: float, path: HandPath) -> NDArray[np.bool_]:
-        """Feasibility ``(len(starts), len(ends))`` of the moves between two levels starting at ``t0`` [s]."""
+    def _edges(self, starts: Array, ends: Array, t0: float, path: HandPath) -> tuple[NDArray[np.bool_], Array]:
+        """Feasibility ``(len(starts), len(ends))`` of the moves between two levels starting at ``t0`` [s],
+        and each move's first sample ``(len(starts), len(ends), nq)`` (its configuration at ``t0 + dtau``)."""
         red = self.redundancy
         genes_a, branch_a = red.genes_of(starts)
         genes_b, branch_b = red.genes_of(ends)
@@ -698,6 +706,7 @@ class ReachController:
         dtau = self.params.preview_time / (self.sweep_samples + 1)
         previous = starts[pairs[:, 0]]
         ok = np.ones(len(pairs), bool)
+        first = np.empty((len(starts), len(ends), starts.shape[1]))
         for k in range(1, self.sweep_samples + 2):
             tau = t0 + k * dtau
             genes = genes_a[pairs[:, 0]] + (k / (self.sweep_samples + 1)) * delta[pairs[:, 0], pairs[:, 1]]
@@ -709,9 +718,11 @@ class ReachController:
                 ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
             steps = np.array([wrapped_difference(self.robot, a, b) for a, b in zip(previous, Q, strict=True)])
             ok &= np.all(np.abs(steps) <= self._speed * dtau, axis=1)
+            if k == 1:
+                first[pairs[:, 0], pairs[:, 1]] = Q
             previous = Q
         feasible[pairs[~ok, 0], pairs[~ok, 1]] = False
-        return feasible
+        return feasible, first
 
     def _choose(self, t: float, q: Array, levels: list[tuple[Array, Array]], path: HandPath) -> Route | None:
         """Viterbi over the levels: the feasible route with the best total S (or the longest prefix)."""
@@ -722,7 +733,9 @@ class ReachController:
         for i, (nodes, values) in enumerate(levels):
             if not len(nodes):
                 break
-            feasible = self._edges(nodes_prev, nodes, t + i * self.params.preview_time, path)
+            feasible, first = self._edges(nodes_prev, nodes, t + i * self.params.preview_time, path)
+            if i == 0:
+                leads = first[0]
             score = np.where(feasible, total[:, None] + values[None, :], -np.inf)
             best_prev = score.argmax(axis=0)
             best = score.max(axis=0)
@@ -740,7 +753,7 @@ class ReachController:
         chain.reverse()
         nodes = np.stack([levels[i][0][k] for i, k in enumerate(chain)])
         S = np.array([levels[i][1][k] for i, k in enumerate(chain)])
-        return Route(nodes, S, complete=len(chain) == len(levels))
+        return Route(nodes, S, complete=len(chain) == len(levels), lead=leads[chain[0]])
 
     def _update(self, t: float, q: Array, path: HandPath) -> None:
         if self._fallback is None:
@@ -767,10 +780,12 @@ class ReachController:
             n = len(self._route.nodes)
             targets, values = targets.copy(), values.copy()
             targets[:n], values[:n] = self._route.nodes, self._route.S
-        direction = np.zeros(self.robot.nv)
-        for k, target in zip(self.weights, targets, strict=True):
-            direction += k * wrapped_difference(self.robot, q, target)
-        return track(self.robot, t, q, state, self._gain * direction, self.params, targets.copy(), values.copy())
+        if self._route is not None:
+            v = wrapped_difference(self.robot, q, self._route.lead) / self._sweep_step
+        else:
+            pulls = [k * wrapped_difference(self.robot, q, g) for k, g in zip(self.weights, targets, strict=True)]
+            v = self._gain * np.sum(pulls, axis=0)
+        return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())
 
 
 SearchFactory = Callable[[int, np.random.Generator], SearchLike]

@@ -369,8 +369,13 @@ def test_reach_follows_a_reachable_route_not_each_times_best(planar: Robot) -> N
     np.testing.assert_allclose(route.S, [100.0, 100.0])
     assert info.targets is not None
     np.testing.assert_allclose(info.targets, np.array(nears), atol=1e-12)
-    # eq. 21 on the route: v = K_v sum k_i (q_i - q)
-    np.testing.assert_allclose(info.v, 0.5 * (nears[0] - q) + 0.5 * (nears[1] - q), atol=1e-9)
+    # the arm follows the planned move: v = (q_lead - q) / dtau, q_lead one sweep step toward node 1,
+    # on the path at t + dtau (hand on r_d) and within the speed limits
+    dtau = 0.5 / (controller.sweep_samples + 1)
+    np.testing.assert_allclose(info.v, (route.lead - q) / dtau, atol=1e-9)
+    lead_hand = kinematics(planar, route.lead[None, :]).tip_position[0, :2]
+    np.testing.assert_allclose(lead_hand, path.position(dtau), atol=1e-9)
+    assert np.all(np.abs(route.lead - q) <= planar.velocity_limits * dtau + 1e-12)
 
 
 def test_reach_drops_a_route_at_its_first_negative_node(planar: Robot) -> None:
