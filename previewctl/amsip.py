@@ -184,11 +184,11 @@ class Evaluator:
     def _planar_chunk(self, Q: Array, t: float) -> Evaluation:
         chain = self.robot.planar
         assert chain is not None
-        points, theta = planar.joint_origins(chain, Q)
+        points, trig = planar.joint_origins(chain, Q)
         _, amsi = planar.amsi(chain, points, self.robot.structural_ranks, self.index)
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)
         if self.scene.obstacles:
-            a, b = planar.link_segments(chain, points, theta)
+            a, b = planar.link_segments(chain, points, trig)
             capsule_d = np.min([_planar_distance(o, t, a, b, chain.link_radii) for o in self.scene.obstacles], axis=0)
             for slot, link in enumerate(chain.link_index):
                 np.minimum(distances[:, link], capsule_d[:, slot], out=distances[:, link])

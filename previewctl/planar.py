@@ -29,12 +29,17 @@ def joint_origins(chain: PlanarChain, Q: Array) -> tuple[Array, Array]:
         Q: ``(B, n)`` joint angles [rad].
 
     Returns:
-        ``points`` ``(2, n + 1, B)`` [m] (x then y; joint origins, then the tip) and the absolute
-        link angles ``theta`` ``(n, B)`` [rad]. Joint-major layout keeps every per-joint slice
-        contiguous, so the arithmetic below is elementwise on ``(B,)`` arrays.
+        ``points`` ``(2, n + 1, B)`` [m] (x then y; joint origins, then the tip) and the cosines and
+        sines ``(2, n, B)`` of the absolute link angles ``theta_j = q_1 + ... + q_j`` (kept for
+        :func:`link_segments`: float64 trigonometry is the costliest step here). Joint-major layout
+        keeps every per-joint slice contiguous, so the arithmetic below is elementwise on ``(B,)``
+        arrays.
     """
     theta = np.cumsum(Q.T, axis=0)
-    cos, sin = np.cos(theta), np.sin(theta)
+    trig = np.empty((2, *theta.shape))
+    np.cos(theta, out=trig[0])
+    np.sin(theta, out=trig[1])
+    cos, sin = trig
     n = Q.shape[1]
     points = np.empty((2, n + 1, Q.shape[0]))
     points[0, 0], points[1, 0] = chain.offsets[0]
@@ -43,7 +48,7 @@ def joint_origins(chain: PlanarChain, Q: Array) -> tuple[Array, Array]:
         c, s = cos[k - 1], sin[k - 1]
         points[0, k] = points[0, k - 1] + c * dx - s * dy
         points[1, k] = points[1, k - 1] + s * dx + c * dy
-    return points, theta
+    return points, trig
 
 
 def jacobian(points: Array, index: int) -> tuple[Array, Array]:
@@ -107,12 +112,13 @@ def _eig2(a: Array, b: Array, c: Array) -> tuple[Array, Array]:
     return half_trace + root, half_trace - root
 
 
-def link_segments(chain: PlanarChain, points: Array, theta: Array) -> tuple[Array, Array]:
-    """End points ``a``, ``b`` ``(B, L, 3)`` [m] of the guarded capsules' axes (z = 0)."""
+def link_segments(chain: PlanarChain, points: Array, trig: Array) -> tuple[Array, Array]:
+    """End points ``a``, ``b`` ``(B, L, 3)`` [m] of the guarded capsules' axes (z = 0), from the
+    joint origins and link-angle cosines/sines of :func:`joint_origins`."""
     B, L = points.shape[2], len(chain.link_joints)
     ends = np.zeros((2, B, L, 3))
     for slot, joint in enumerate(chain.link_joints):
-        c, s = np.cos(theta[joint]), np.sin(theta[joint])
+        c, s = trig[0, joint], trig[1, joint]
         for e in range(2):
             lx, ly = chain.link_segments[slot, e]
             ends[e, :, slot, 0] = points[0, joint] + c * lx - s * ly
