@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from previewctl import planar, planar_distance
 from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics
 from previewctl.errors import ConfigurationError
+from previewctl.motion import Static
 from previewctl.robot import Robot
 from previewctl.scene import Box, Capsule, Clearance, Cylinder, Halfspace, Obstacle, Scene, Sphere
 
@@ -87,37 +88,27 @@ class Evaluation:
     tip_position: Array
 
 
-_PLANAR_SHAPES = (Sphere, Capsule, Box, Cylinder, Halfspace)
-
-
-def _planar_supported(obstacle: Obstacle, t: float) -> bool:
-    shape = obstacle.shape
-    if not isinstance(shape, _PLANAR_SHAPES):
-        return False
-    pose = obstacle.placement(t)
-    if isinstance(shape, Box):
-        return planar_distance.box_is_planar(pose.translation, pose.rotation, np.array(shape.size) / 2)
-    if isinstance(shape, Cylinder):
-        return planar_distance.cylinder_is_planar(pose.translation, pose.rotation, shape.radius, shape.length / 2)
-    return True
-
-
-def _planar_distance(obstacle: Obstacle, t: float, a: Array, b: Array, radius: Array) -> Array:
-    """Distances ``(B, L)`` [m] between the capsules ``(a, b, radius)`` and one obstacle at time ``t``."""
+def _planar_kernel(obstacle: Obstacle, t: float) -> planar_distance.Kernel | None:
+    """The validated planar distance kernel of ``obstacle`` at time ``t`` [s], or ``None`` when the
+    closed form does not apply (meshes, planes, boxes/cylinders not straddling the arm's plane)."""
     shape, pose = obstacle.shape, obstacle.placement(t)
     p, R = pose.translation, pose.rotation
     if isinstance(shape, Sphere):
-        return planar_distance.to_sphere(a, b, radius, p, shape.radius)
+        return planar_distance.sphere_kernel(p, shape.radius)
     if isinstance(shape, Capsule):
         axis = R[:, 2] * shape.length / 2
-        return planar_distance.to_capsule(a, b, radius, p - axis, p + axis, shape.radius)
+        return planar_distance.capsule_kernel(p - axis, p + axis, shape.radius)
     if isinstance(shape, Box):
-        return planar_distance.to_box(a, b, radius, p, R, np.array(shape.size) / 2)
+        half = np.array(shape.size) / 2
+        return planar_distance.box_kernel(p, R, half) if planar_distance.box_is_planar(p, R, half) else None
     if isinstance(shape, Cylinder):
-        return planar_distance.to_vertical_cylinder(a, b, radius, p, shape.radius, shape.length / 2)
-    assert isinstance(shape, Halfspace)
-    normal = R @ np.array(shape.normal)
-    return planar_distance.to_halfspace(a, b, radius, normal, shape.offset + float(normal @ p))
+        if not planar_distance.cylinder_is_planar(p, R, shape.length / 2):
+            return None
+        return planar_distance.vertical_cylinder_kernel(p, shape.radius, shape.length / 2)
+    if isinstance(shape, Halfspace):
+        normal = R @ np.array(shape.normal)
+        return planar_distance.halfspace_kernel(normal, shape.offset + float(normal @ p))
+    return None
 
 
 class Evaluator:
@@ -147,10 +138,26 @@ class Evaluator:
         self.method: Method = method
         self.data = robot.model.createData()
         self.clearance = Clearance(robot, self.scene)
+        # static obstacles: their planar kernels are built (and validated) once
+        self._static_kernels = {
+            i: _planar_kernel(o, 0.0) for i, o in enumerate(self.scene.obstacles) if isinstance(o.motion, Static)
+        } if robot.planar is not None else {}
+
+    def _planar_kernels(self, t: float) -> list[planar_distance.Kernel] | None:
+        """One distance kernel per obstacle at time ``t`` [s], or ``None`` if the planar path cannot serve."""
+        if self.robot.planar is None:
+            return None
+        kernels = []
+        for i, obstacle in enumerate(self.scene.obstacles):
+            kernel = self._static_kernels[i] if i in self._static_kernels else _planar_kernel(obstacle, t)
+            if kernel is None:
+                return None
+            kernels.append(kernel)
+        return kernels
 
     def uses_planar_path(self, t: float = 0.0) -> bool:
         """Whether a call at time ``t`` [s] takes the vectorised planar path."""
-        possible = self.robot.planar is not None and all(_planar_supported(o, t) for o in self.scene.obstacles)
+        possible = self._planar_kernels(t) is not None
         if self.method == "planar" and not possible:
             raise ConfigurationError(
                 f"the planar path needs a planar robot and sphere/capsule/box/vertical-cylinder/halfspace "
@@ -162,8 +169,11 @@ class Evaluator:
     def __call__(self, q: object, t: float = 0.0) -> Evaluation:
         """AMSIP of a batch ``(B, nq)`` (or one ``(nq,)``, returned with ``B = 1``) at time ``t`` [s]."""
         Q, _ = self.robot.check_configurations(q)
-        if self.uses_planar_path(t):
-            return self._planar(Q, t)
+        kernels = self._planar_kernels(t) if self.method != "general" else None
+        if self.method == "planar" and kernels is None:
+            self.uses_planar_path(t)  # raises the explanatory error
+        if kernels is not None:
+            return self._planar(Q, kernels)
         return self._general(Q, t)
 
     def _general(self, Q: Array, t: float) -> Evaluation:
@@ -177,11 +187,13 @@ class Evaluator:
         distances = self.clearance.per_link(pairs)
         return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 
-    def _planar(self, Q: Array, t: float, chunk: int = 32768) -> Evaluation:
-        parts = [self._planar_chunk(Q[s : s + chunk], t) for s in range(0, Q.shape[0], chunk)]
+    def _planar(self, Q: Array, kernels: list[planar_distance.Kernel], chunk: int = 16384) -> Evaluation:
+        if Q.shape[0] <= chunk:
+            return self._planar_chunk(Q, kernels)
+        parts = [self._planar_chunk(Q[s : s + chunk], kernels) for s in range(0, Q.shape[0], chunk)]
         return Evaluation(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Evaluation)})
 
-    def _planar_chunk(self, Q: Array, t: float) -> Evaluation:
+    def _planar_chunk(self, Q: Array, kernels: list[planar_distance.Kernel]) -> Evaluation:
         chain = self.robot.planar
         assert chain is not None
         points, trig = planar.joint_origins(chain, Q)
@@ -189,7 +201,9 @@ class Evaluator:
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)
         if self.scene.obstacles:
             a, b = planar.link_segments(chain, points, trig)
-            capsule_d = np.min([_planar_distance(o, t, a, b, chain.link_radii) for o in self.scene.obstacles], axis=0)
+            capsule_d = planar_distance.apply(kernels[0], a, b, chain.link_radii)
+            for kernel in kernels[1:]:
+                np.minimum(capsule_d, planar_distance.apply(kernel, a, b, chain.link_radii), out=capsule_d)
             for slot, link in enumerate(chain.link_index):
                 np.minimum(distances[:, link], capsule_d[:, slot], out=distances[:, link])
         tip = np.zeros((Q.shape[0], 3))

@@ -150,11 +150,16 @@ def cylinder_is_planar(
 # is a numpy operation over the whole block: the blocks only keep the ~30 temporaries of a kernel
 # in the CPU cache, which made the kernels 2-3x faster than one pass over 400,000 links.
 
-_Kernel = Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
+Kernel = Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
 _BLOCK_LINKS = 16384
 
 
-def _blocked(kernel: _Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
+def apply(kernel: Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
+    """Distances ``(B, L)`` [m] of a prepared kernel (``*_kernel``) for links ``(B, L, 3)``, unchecked."""
+    return _blocked(kernel, a, b, radius)
+
+
+def _blocked(kernel: Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
     """``kernel(a, b, radius)`` for ``(..., L, 3)`` end points, evaluated block by block."""
     out = np.empty(a.shape[:-1])
     if out.size == 0:
@@ -301,6 +306,19 @@ def _halfspace_kernel(
 # -------------------------------------------------------------------------------- distances
 
 
+def sphere_kernel(
+    center: npt.ArrayLike,
+    sphere_radius: float,
+) -> Kernel:
+    """The validated distance kernel of :func:`to_sphere` (build once, apply with :func:`apply`)."""
+    kernel = partial(
+        _point_kernel,
+        center=tuple(_vector3(center, "sphere center").tolist()),
+        clearance=_length(sphere_radius, "sphere radius"),
+    )
+    return kernel
+
+
 def to_sphere(
     a: FloatArray,
     b: FloatArray,
@@ -327,12 +345,23 @@ def to_sphere(
         SceneError: The center is not 3 finite numbers or the sphere radius is < 0.
     """
     a, b, radius = _links(a, b, radius)
+    return _blocked(sphere_kernel(center, sphere_radius), a, b, radius)
+
+
+def capsule_kernel(
+    p0: npt.ArrayLike,
+    p1: npt.ArrayLike,
+    capsule_radius: float,
+) -> Kernel:
+    """The validated distance kernel of :func:`to_capsule` (build once, apply with :func:`apply`)."""
+    q0 = _vector3(p0, "capsule p0")
     kernel = partial(
-        _point_kernel,
-        center=tuple(_vector3(center, "sphere center").tolist()),
-        clearance=_length(sphere_radius, "sphere radius"),
+        _capsule_kernel,
+        p=tuple(q0.tolist()),
+        d2=tuple((_vector3(p1, "capsule p1") - q0).tolist()),
+        clearance=_length(capsule_radius, "capsule radius"),
     )
-    return _blocked(kernel, a, b, radius)
+    return kernel
 
 
 def to_capsule(
@@ -364,14 +393,31 @@ def to_capsule(
         SceneError: An axis end is not 3 finite numbers or the capsule radius is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    q0 = _vector3(p0, "capsule p0")
+    return _blocked(capsule_kernel(p0, p1, capsule_radius), a, b, radius)
+
+
+def box_kernel(
+    center: npt.ArrayLike,
+    rotation: npt.ArrayLike,
+    half_extents: npt.ArrayLike,
+) -> Kernel:
+    """The validated distance kernel of :func:`to_box` (build once, apply with :func:`apply`)."""
+    c = _vector3(center, "box center")
+    rot = _rotation(rotation)
+    h = _vector3(half_extents, "box half_extents")
+    if np.any(h < 0.0) or not box_is_planar(c, rot, h):
+        raise SceneError(
+            "to_box needs half_extents >= 0, a box turned only about z (rotation[:, 2] = "
+            f"(0, 0, +-1)) and |center_z| <= half_extents_z; got center {c.tolist()}, "
+            f"rotation {rot.tolist()}, half_extents {h.tolist()}"
+        )
     kernel = partial(
-        _capsule_kernel,
-        p=tuple(q0.tolist()),
-        d2=tuple((_vector3(p1, "capsule p1") - q0).tolist()),
-        clearance=_length(capsule_radius, "capsule radius"),
+        _box_kernel,
+        center=(float(c[0]), float(c[1])),
+        axes=(float(rot[0, 0]), float(rot[1, 0]), float(rot[0, 1]), float(rot[1, 1])),
+        half=(float(h[0]), float(h[1])),
     )
-    return _blocked(kernel, a, b, radius)
+    return kernel
 
 
 def to_box(
@@ -407,22 +453,24 @@ def to_box(
         SceneError: The box is not planar (see :func:`box_is_planar`) or a half extent is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    c = _vector3(center, "box center")
-    rot = _rotation(rotation)
-    h = _vector3(half_extents, "box half_extents")
-    if np.any(h < 0.0) or not box_is_planar(c, rot, h):
+    return _blocked(box_kernel(center, rotation, half_extents), a, b, radius)
+
+
+def vertical_cylinder_kernel(
+    center: npt.ArrayLike,
+    cyl_radius: float,
+    half_length: float,
+) -> Kernel:
+    """The validated distance kernel of :func:`to_vertical_cylinder` (build once, apply with :func:`apply`)."""
+    c = _vector3(center, "cylinder center")
+    clearance = _length(cyl_radius, "cylinder radius")
+    if not cylinder_is_planar(c, np.eye(3), half_length):
         raise SceneError(
-            "to_box needs half_extents >= 0, a box turned only about z (rotation[:, 2] = "
-            f"(0, 0, +-1)) and |center_z| <= half_extents_z; got center {c.tolist()}, "
-            f"rotation {rot.tolist()}, half_extents {h.tolist()}"
+            "to_vertical_cylinder needs |center_z| <= half_length so that the cylinder meets the "
+            f"plane z = 0; got center {c.tolist()}, half_length {half_length!r}"
         )
-    kernel = partial(
-        _box_kernel,
-        center=(float(c[0]), float(c[1])),
-        axes=(float(rot[0, 0]), float(rot[1, 0]), float(rot[0, 1]), float(rot[1, 1])),
-        half=(float(h[0]), float(h[1])),
-    )
-    return _blocked(kernel, a, b, radius)
+    kernel = partial(_point_kernel, center=(float(c[0]), float(c[1])), clearance=clearance)
+    return kernel
 
 
 def to_vertical_cylinder(
@@ -455,15 +503,20 @@ def to_vertical_cylinder(
         SceneError: The cylinder does not meet the plane z = 0, or a size is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    c = _vector3(center, "cylinder center")
-    clearance = _length(cyl_radius, "cylinder radius")
-    if not cylinder_is_planar(c, np.eye(3), half_length):
-        raise SceneError(
-            "to_vertical_cylinder needs |center_z| <= half_length so that the cylinder meets the "
-            f"plane z = 0; got center {c.tolist()}, half_length {half_length!r}"
-        )
-    kernel = partial(_point_kernel, center=(float(c[0]), float(c[1])), clearance=clearance)
-    return _blocked(kernel, a, b, radius)
+    return _blocked(vertical_cylinder_kernel(center, cyl_radius, half_length), a, b, radius)
+
+
+def halfspace_kernel(
+    normal: npt.ArrayLike,
+    offset: float,
+) -> Kernel:
+    """The validated distance kernel of :func:`to_halfspace` (build once, apply with :func:`apply`)."""
+    n = _vector3(normal, "half-space normal")
+    norm = float(np.linalg.norm(n))
+    if norm == 0.0 or not np.isfinite(float(offset)):
+        raise SceneError(f"a half-space needs a nonzero normal and a finite offset; got {normal!r}, {offset!r}")
+    kernel = partial(_halfspace_kernel, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
+    return kernel
 
 
 def to_halfspace(
@@ -493,9 +546,4 @@ def to_halfspace(
         SceneError: The normal is zero or not finite, or the offset is not finite.
     """
     a, b, radius = _links(a, b, radius)
-    n = _vector3(normal, "half-space normal")
-    norm = float(np.linalg.norm(n))
-    if norm == 0.0 or not np.isfinite(float(offset)):
-        raise SceneError(f"a half-space needs a nonzero normal and a finite offset; got {normal!r}, {offset!r}")
-    kernel = partial(_halfspace_kernel, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
-    return _blocked(kernel, a, b, radius)
+    return _blocked(halfspace_kernel(normal, offset), a, b, radius)
