@@ -21,13 +21,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 from numpy.typing import NDArray
 
+from previewctl.drawing import arm_points, clip_halfplane, obstacle_section
 from previewctl.motion import Static
 from previewctl.robot import Robot
 from previewctl.scenario import Scenario
-from previewctl.scene import Box, Capsule, Cylinder, Halfspace, Obstacle, Plane, Sphere
+from previewctl.scene import Box, Capsule, Cylinder, Mesh, Obstacle, Plane, Sphere
 from previewctl.simulate import RunResult
 
 Array = NDArray[np.float64]
@@ -44,24 +44,6 @@ def _pyplot() -> Any:
     import matplotlib.pyplot as plt
 
     return plt
-
-
-def arm_points(robot: Robot, Q: Array) -> Array:
-    """Joint origins then the hand for each configuration: ``(T, njoints, 3)`` [m].
-
-    Args:
-        robot: the arm.
-        Q: ``(T, nq)`` configurations.
-    """
-    model, data = robot.model, robot.model.createData()
-    out = np.empty((Q.shape[0], model.njoints, 3))
-    tip = robot.tip_frame_id
-    for k, q in enumerate(Q):
-        pin.framesForwardKinematics(model, data, q)
-        for j in range(1, model.njoints):
-            out[k, j - 1] = data.oMi[j].translation
-        out[k, -1] = data.oMf[tip].translation
-    return out
 
 
 def strobe_indices(steps: int, poses: int, extra: int | None = None) -> NDArray[np.int_]:
@@ -103,41 +85,6 @@ def _segment_outline(a: Array, b: Array, radius: float, round_caps: bool, n: int
     return np.array(cap_b + cap_a)
 
 
-def _convex_hull(points: Array) -> Array:
-    """2-D convex hull (Andrew's monotone chain) of ``(K, 2)`` points, counter-clockwise."""
-    pts = sorted({(round(float(x), 12), round(float(y), 12)) for x, y in points})
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple[float, float]] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple[float, float]] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _clip_halfplane(polygon: Array, normal: Array, offset: float) -> Array:
-    """The part of ``polygon`` ``(K, 2)`` where ``normal · x <= offset`` (Sutherland-Hodgman)."""
-    out: list[Array] = []
-    for i in range(len(polygon)):
-        p, q = polygon[i], polygon[(i + 1) % len(polygon)]
-        dp, dq = float(normal @ p) - offset, float(normal @ q) - offset
-        if dp <= 0:
-            out.append(p)
-        if dp * dq < 0:
-            out.append(p + (q - p) * dp / (dp - dq))
-    return np.array(out).reshape(-1, 2)
-
-
 def obstacle_outline(obstacle: Obstacle, t: float, bounds: tuple[float, float, float, float]) -> tuple[str, Array]:
     """How an obstacle looks in the plane ``z = 0`` at time ``t`` [s].
 
@@ -150,38 +97,25 @@ def obstacle_outline(obstacle: Obstacle, t: float, bounds: tuple[float, float, f
         ``(kind, points)``: ``("polygon", (K, 2))`` a filled outline, ``("line", (2, 2))`` a line, or
         ``("marker", (1, 2))`` a position marker (meshes).
     """
+    section = obstacle_section(obstacle, t, bounds)
+    if len(section):
+        return "polygon", section
     pose = obstacle.placement(t)
     p, R, shape = np.array(pose.translation), np.array(pose.rotation), obstacle.shape
-    centre = p[:2]
-    if isinstance(shape, Sphere):
-        return "polygon", _segment_outline(centre, centre, shape.radius, True, 33)
-    if isinstance(shape, (Cylinder, Capsule)):
-        axis = R[:, 2]
-        if abs(axis[2]) > 0.99:
-            return "polygon", _segment_outline(centre, centre, shape.radius, True, 33)
-        half = axis * shape.length / 2
-        return "polygon", _segment_outline((p - half)[:2], (p + half)[:2], shape.radius, isinstance(shape, Capsule))
-    if isinstance(shape, Box):
-        half = np.array(shape.size) / 2
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        corners = p + (signs * half) @ R.T
-        return "polygon", _convex_hull(corners[:, :2])
-    xmin, xmax, ymin, ymax = bounds
-    if isinstance(shape, (Halfspace, Plane)):
+    if isinstance(shape, Plane):
         normal = R @ np.array(shape.normal)
         offset = shape.offset + float(normal @ p)
         n2 = normal[:2]
-        view = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
-        if isinstance(shape, Halfspace):
-            if np.linalg.norm(n2) < 1e-9:
-                return "polygon", view if offset >= 0 else np.zeros((0, 2))
-            return "polygon", _clip_halfplane(view, n2, offset)
         if np.linalg.norm(n2) < 1e-9:
             return "line", np.zeros((0, 2))
-        inside = _clip_halfplane(view, n2, offset)
+        xmin, xmax, ymin, ymax = bounds
+        view = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
+        inside = clip_halfplane(view, n2, offset)
         on_line = inside[np.abs(inside @ n2 - offset) < 1e-9 * max(1.0, abs(offset))]
         return "line", on_line[:2] if len(on_line) >= 2 else np.zeros((0, 2))
-    return "marker", centre[None, :]
+    if isinstance(shape, Mesh):
+        return "marker", p[None, :2]
+    return "polygon", np.zeros((0, 2))  # does not meet the plane z = 0
 
 
 def _draw_obstacle(ax: Any, obstacle: Obstacle, t: float, bounds: tuple[float, float, float, float],
@@ -525,7 +459,6 @@ def make_figures(result: RunResult, scenario: Scenario, out_dir: str | os.PathLi
 
 __all__ = [
     "animate_gif",
-    "arm_points",
     "clearance_plot",
     "error_plot",
     "make_figures",
