@@ -19,6 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import SceneError
+from previewctl.validation import check_finite, real_array, real_scalar
+from previewctl.validation import show as _show
 
 __all__ = [
     "MOTION_TYPES",
@@ -51,46 +53,16 @@ class Motion(Protocol):
 # ----------------------------------------------------------------------------- validation
 
 
-def _show(value: object) -> str:
-    """Return a short, single-line representation of ``value`` for error messages."""
-    if isinstance(value, np.ndarray):
-        text = np.array2string(value, threshold=20, precision=6, separator=", ")
-    else:
-        text = repr(value)
-    text = " ".join(text.split())
-    return text if len(text) <= 200 else text[:197] + "..."
-
-
 def _real_array(value: object, name: str) -> NDArray[np.float64]:
-    """Convert ``value`` to a fresh float64 array; :class:`SceneError` if it is not real."""
-    if isinstance(value, (str, bytes)):
-        raise SceneError(f"{name} must be an array of real numbers, got {_show(value)}")
-    try:
-        raw = np.asarray(value)
-    except (TypeError, ValueError) as exc:  # ragged nested lists
-        raise SceneError(f"{name} must be an array of real numbers, got {_show(value)}") from exc
-    if raw.dtype.kind not in "biuf":
-        raise SceneError(f"{name} must be an array of real numbers, got {_show(value)} (dtype {raw.dtype})")
-    return np.array(raw, dtype=np.float64)
+    return real_array(value, name, SceneError)
 
 
 def _check_finite(array: NDArray[np.float64], name: str) -> None:
-    """Raise :class:`SceneError` naming the first non-finite entry of ``array``."""
-    finite = np.isfinite(array)
-    if not finite.all():
-        index = tuple(int(i) for i in np.argwhere(~finite)[0])  # () for a 0-d array
-        entry = f"entry {list(index)} " if index else ""
-        raise SceneError(f"{name} must be finite; {entry}is {float(array[index])!r} (in {name} = {_show(array)})")
+    check_finite(array, name, SceneError)
 
 
 def _scalar(value: object, name: str) -> float:
-    """Convert ``value`` to a finite float; :class:`SceneError` otherwise (bools rejected)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise SceneError(f"{name} must be a real number, got {_show(value)}")
-    number = float(value)
-    if not np.isfinite(number):
-        raise SceneError(f"{name} must be finite, got {number!r}")
-    return number
+    return real_scalar(value, name, SceneError)
 
 
 def _frozen(array: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -55,6 +55,7 @@ from numpy.typing import NDArray
 from previewctl.amsip import Evaluator
 from previewctl.errors import ConfigurationError
 from previewctl.robot import Robot
+from previewctl.validation import show as _show
 
 Array = NDArray[np.float64]
 TWO_PI = 2.0 * np.pi
@@ -96,11 +97,6 @@ class Target:
     position: Array
     rotation: Array | None = None
     planar: bool = False
-
-
-def _show(value: object) -> str:
-    text = " ".join(repr(value).split())
-    return text if len(text) <= 160 else text[:157] + "..."
 
 
 def parse_target(target: object, robot: Robot) -> Target:

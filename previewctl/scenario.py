@@ -69,6 +69,7 @@ from previewctl.motion import rpy_to_matrix
 from previewctl.robot import Robot, load_robot
 from previewctl.scene import Scene, scene_from_dict
 from previewctl.trajectory import HandPath
+from previewctl.validation import show as _show
 
 Array = NDArray[np.float64]
 
@@ -275,11 +276,6 @@ class _Reader:
         if isinstance(value, list):
             return self.numbers(value, where)
         return (self.number(value, where),)
-
-
-def _show(value: object) -> str:
-    text = " ".join(repr(value).split())
-    return text if len(text) <= 120 else text[:117] + "..."
 
 
 def load_scenario(path: str | os.PathLike[str]) -> Scenario:

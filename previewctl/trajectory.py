@@ -14,6 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import TrajectoryError
+from previewctl.validation import check_finite, real_array, real_scalar
+from previewctl.validation import show as _show
 
 __all__ = ["HandPath"]
 
@@ -21,46 +23,16 @@ _ROTATION_TOL = 1e-6
 """Tolerance on ``R^T R = I`` and ``det R = 1`` for a hand orientation."""
 
 
-def _show(value: object) -> str:
-    """Return a short, single-line representation of ``value`` for error messages."""
-    if isinstance(value, np.ndarray):
-        text = np.array2string(value, threshold=20, precision=6, separator=", ")
-    else:
-        text = repr(value)
-    text = " ".join(text.split())
-    return text if len(text) <= 200 else text[:197] + "..."
-
-
 def _real_array(value: object, name: str) -> NDArray[np.float64]:
-    """Convert ``value`` to a float64 array, raising :class:`TrajectoryError` if it is not real."""
-    if isinstance(value, (str, bytes)):
-        raise TrajectoryError(f"{name} must be an array of real numbers, got {_show(value)}")
-    try:
-        raw = np.asarray(value)
-    except (TypeError, ValueError) as exc:  # ragged nested lists
-        raise TrajectoryError(f"{name} must be an array of real numbers, got {_show(value)}") from exc
-    if raw.dtype.kind not in "biuf":
-        raise TrajectoryError(f"{name} must be an array of real numbers, got {_show(value)} (dtype {raw.dtype})")
-    return np.array(raw, dtype=np.float64)
+    return real_array(value, name, TrajectoryError)
 
 
 def _real_scalar(value: object, name: str) -> float:
-    """Convert ``value`` to a finite float, raising :class:`TrajectoryError` otherwise."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TrajectoryError(f"{name} must be a real number, got {_show(value)}")
-    number = float(value)
-    if not np.isfinite(number):
-        raise TrajectoryError(f"{name} must be finite, got {number!r}")
-    return number
+    return real_scalar(value, name, TrajectoryError)
 
 
 def _check_finite(array: NDArray[np.float64], name: str) -> None:
-    """Raise :class:`TrajectoryError` naming the first non-finite entry of ``array``."""
-    finite = np.isfinite(array)
-    if not finite.all():
-        index = tuple(int(i) for i in np.argwhere(~finite)[0])  # () for a 0-d array
-        entry = f"entry {list(index)} " if index else ""
-        raise TrajectoryError(f"{name} must be finite; {entry}is {float(array[index])!r} (in {name} = {_show(array)})")
+    check_finite(array, name, TrajectoryError)
 
 
 @dataclass(frozen=True, eq=False)
