@@ -27,7 +27,7 @@ from previewctl import planar, planar_distance
 from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics
 from previewctl.errors import ConfigurationError
 from previewctl.motion import Static
-from previewctl.robot import Robot
+from previewctl.robot import PlanarChain, Robot
 from previewctl.scene import Box, Capsule, Clearance, Cylinder, Halfspace, Obstacle, Scene, Sphere
 
 Array = NDArray[np.float64]
@@ -172,8 +172,8 @@ class Evaluator:
         kernels = self._planar_kernels(t) if self.method != "general" else None
         if self.method == "planar" and kernels is None:
             self.uses_planar_path(t)  # raises the explanatory error
-        if kernels is not None:
-            return self._planar(Q, kernels)
+        if kernels is not None and self.robot.planar is not None:
+            return self._planar(Q, self.robot.planar, kernels)
         return self._general(Q, t)
 
     def _general(self, Q: Array, t: float) -> Evaluation:
@@ -187,15 +187,15 @@ class Evaluator:
         distances = self.clearance.per_link(pairs)
         return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 
-    def _planar(self, Q: Array, kernels: list[planar_distance.Kernel], chunk: int = 16384) -> Evaluation:
+    def _planar(
+        self, Q: Array, chain: PlanarChain, kernels: list[planar_distance.Kernel], chunk: int = 16384
+    ) -> Evaluation:
         if Q.shape[0] <= chunk:
-            return self._planar_chunk(Q, kernels)
-        parts = [self._planar_chunk(Q[s : s + chunk], kernels) for s in range(0, Q.shape[0], chunk)]
+            return self._planar_chunk(Q, chain, kernels)
+        parts = [self._planar_chunk(Q[s : s + chunk], chain, kernels) for s in range(0, Q.shape[0], chunk)]
         return Evaluation(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Evaluation)})
 
-    def _planar_chunk(self, Q: Array, kernels: list[planar_distance.Kernel]) -> Evaluation:
-        chain = self.robot.planar
-        assert chain is not None
+    def _planar_chunk(self, Q: Array, chain: PlanarChain, kernels: list[planar_distance.Kernel]) -> Evaluation:
         points, trig = planar.joint_origins(chain, Q)
         _, amsi = planar.amsi(chain, points, self.robot.structural_ranks, self.index)
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)

@@ -755,7 +755,7 @@ class ReachController:
         S = np.array([levels[i][1][k] for i, k in enumerate(chain)])
         return Route(nodes, S, complete=len(chain) == len(levels), lead=leads[chain[0]])
 
-    def _update(self, t: float, q: Array, path: HandPath) -> None:
+    def _update(self, t: float, q: Array, path: HandPath) -> tuple[Array, Array]:
         if self._fallback is None:
             for search in self.searches:
                 search.seed(np.array(q, dtype=float))
@@ -769,13 +769,14 @@ class ReachController:
             levels.append((np.array([c.q for c in peaks]).reshape(-1, self.robot.nq), np.array([c.S for c in peaks])))
         self._fallback = (best_q, best_S)
         self._route = self._choose(t, q, levels, path)
+        return self._fallback
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
         if state.frame_due or self._fallback is None:
-            self._update(t, q, state.path)
-        assert self._fallback is not None
-        targets, values = self._fallback
+            targets, values = self._update(t, q, state.path)
+        else:
+            targets, values = self._fallback
         if self._route is not None:
             n = len(self._route.nodes)
             targets, values = targets.copy(), values.copy()
