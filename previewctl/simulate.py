@@ -53,7 +53,8 @@ NPZ_NAME = "run.npz"
 SUMMARY_NAME = "summary.json"
 
 _ARRAYS = ("t", "q", "qdot", "qdot_requested", "hand", "desired", "hand_error", "S", "amsi", "link_distances",
-           "min_distance", "collision", "cycle_time", "frame_due", "velocity_scale", "velocity_limits")
+           "min_distance", "collision", "cycle_time", "frame_due", "velocity_scale", "velocity_limits",
+           "targets", "target_S")
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +84,9 @@ class RunResult:
         frame_due: ``(T,)`` whether a camera frame arrived at the step.
         velocity_scale: ``(T,)`` uniform velocity-limit scaling applied (1 = unlimited).
         velocity_limits: ``(nv,)`` joint speed limits used [rad/s] (``inf`` = none).
+        targets: ``(T, p, nq)`` the imaginary arms ``q~_i`` the controller steered toward (``p = 0``
+            without previews; NaN where no command was computed, e.g. the colliding step).
+        target_S: ``(T, p)`` their AMSIP values.
     """
 
     scenario: str
@@ -107,6 +111,8 @@ class RunResult:
     frame_due: NDArray[np.bool_]
     velocity_scale: Array
     velocity_limits: Array
+    targets: Array
+    target_S: Array  # noqa: N815 -- the paper's symbol S
 
     @property
     def steps(self) -> int:
@@ -220,6 +226,8 @@ def simulate(
         "cycle_time": np.zeros(steps + 1),
         "frame_due": np.zeros(steps + 1, dtype=bool),
         "velocity_scale": np.ones(steps + 1),
+        "targets": None,  # (steps + 1, p, nq) once the controller reports its imaginary arms
+        "target_S": None,
     }
     data = model.createData()
     q = np.array(scenario.q0, dtype=float)
@@ -256,6 +264,8 @@ def simulate(
             q = np.asarray(pin.integrate(model, q, qdot * timing.dt), dtype=float)
         if progress is not None:
             progress(k / steps, t)
+    if log["targets"] is None:  # a controller without imaginary arms: p = 0
+        log["targets"], log["target_S"] = np.zeros((steps + 1, 0, nq)), np.zeros((steps + 1, 0))
     arrays = {name: value[:count] for name, value in log.items()}
     return RunResult(
         scenario=scenario.name,
@@ -274,6 +284,11 @@ def _log_command(log: dict[str, Any], k: int, hand: Array, info: ControlInfo, qd
     log["hand_error"][k] = np.linalg.norm((info.desired_position - hand)[:rows])
     log["qdot"][k], log["qdot_requested"][k] = qdot, info.qdot_requested
     log["velocity_scale"][k] = info.scale
+    if info.targets is not None and info.target_amsip is not None:
+        if log["targets"] is None:
+            rows_total, (p, nq) = len(log["t"]), info.targets.shape
+            log["targets"], log["target_S"] = np.full((rows_total, p, nq), np.nan), np.full((rows_total, p), np.nan)
+        log["targets"][k], log["target_S"][k] = info.targets, info.target_amsip
 
 
 # ------------------------------------------------------------------------------------ saving

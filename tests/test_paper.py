@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from previewctl.avoidance import kinematics
 from previewctl.cli import main
 from previewctl.paper import PAPER_CONTROLLERS, canonical_scenario, with_controller
 from previewctl.simulate import simulate
@@ -59,3 +60,13 @@ def test_short_multi_preview_run_tracks_without_collision() -> None:
     assert not summary["collided"]
     assert summary["max_hand_error"] < 2e-3
     assert summary["min_S"] > 0 and summary["max_qdot_ratio"] <= 1.0 + 1e-9
+    # the log keeps the imaginary arms: each puts its hand on the path at its own time t_f + i t~,
+    # t_f the camera frame that computed them (targets are held between frames)
+    assert result.targets.shape == (len(result.t), 3, short.robot.nq) and result.target_S.shape == (len(result.t), 3)
+    frames = np.flatnonzero(result.frame_due)
+    for k in (0, len(result.t) // 2, len(result.t) - 1):
+        t_frame = result.t[frames[frames <= k][-1]]
+        hands = kinematics(short.robot, result.targets[k]).tip_position[:, :2]
+        expected = [short.path.position(t_frame + 5.0 * i) for i in (1, 2, 3)]
+        np.testing.assert_allclose(hands, expected, atol=1e-6)
+        assert np.all(result.target_S[k] > 0)
