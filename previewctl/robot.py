@@ -573,19 +573,10 @@ def _planar_chain(robot: Robot) -> PlanarChain | None:
     )
 
 
-def describe(robot: Robot) -> str:
-    """A short human-readable summary of a loaded robot."""
-    return (
-        f"{robot.name}: nq={robot.nq}, nv={robot.nv}, task={robot.task} at {robot.tip_frame!r}, "
-        f"control points {list(robot.control_points)}, guarded links {list(robot.guarded_links)}"
-    )
-
-
 __all__ = [
     "PlanarChain",
     "PreviewctlError",
     "Robot",
-    "describe",
     "example_robot_names",
     "load_robot",
     "shipped_robot_names",

@@ -41,6 +41,7 @@ from previewctl.control import (
     ControlState,
     effective_velocity_limits,
     make_controller,
+    task_target,
 )
 from previewctl.errors import PreviewctlError
 from previewctl.scenario import Scenario
@@ -247,8 +248,7 @@ def simulate(
         log["frame_due"][k] = frame_due
         if check.collision[0] and stop_on_collision:
             hand = check.tip_position[0].copy()
-            desired = np.zeros(3)
-            desired[: scenario.path.dim] = scenario.path.position(t)
+            desired, _ = task_target(robot, scenario.path, t)
             log["hand"][k], log["desired"][k] = hand, desired
             log["hand_error"][k] = np.linalg.norm((desired - hand)[:rows])
             if progress is not None:

@@ -70,21 +70,6 @@ def _is_planar_run(scenario: Scenario) -> bool:
 # ------------------------------------------------------------------------- planar obstacle shapes
 
 
-def _segment_outline(a: Array, b: Array, radius: float, round_caps: bool, n: int = 17) -> Array:
-    """Outline ``(K, 2)`` of a 2-D segment thickened by ``radius`` (stadium or rectangle)."""
-    axis = b - a
-    length = float(np.linalg.norm(axis))
-    u = axis / length if length > 1e-12 else np.array([1.0, 0.0])
-    normal = np.array([-u[1], u[0]])
-    if not round_caps:
-        return np.array([a + radius * normal, b + radius * normal, b - radius * normal, a - radius * normal])
-    base = math.atan2(normal[1], normal[0])
-    cap_b = [b + radius * np.array([math.cos(base - s), math.sin(base - s)]) for s in np.linspace(0, math.pi, n)]
-    cap_a = [a + radius * np.array([math.cos(base + math.pi - s), math.sin(base + math.pi - s)])
-             for s in np.linspace(0, math.pi, n)]
-    return np.array(cap_b + cap_a)
-
-
 def obstacle_outline(obstacle: Obstacle, t: float, bounds: tuple[float, float, float, float]) -> tuple[str, Array]:
     """How an obstacle looks in the plane ``z = 0`` at time ``t`` [s].
 
