@@ -334,6 +334,16 @@ def _has_scenarios() -> bool:
     return hasattr(scenario, "load_scenario")
 
 
+def _add_evaluation_options(parser: argparse.ArgumentParser) -> None:
+    """Scene, time, geometry and index options shared by ``index`` and ``map``."""
+    parser.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")
+    parser.add_argument("--time", type=float, default=0.0, help="time at which moving obstacles are placed [s]")
+    parser.add_argument("--geometry", choices=("convex", "mesh"), default="convex", help="robot collision geometry")
+    parser.add_argument("--length-unit", type=float, default=0.01,
+                        help="index length unit L_ref [m] (default 0.01: cm)")
+    parser.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
     parser = _Parser(
@@ -359,11 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="URDF path, shipped or example-robot-data name (default planar4)")
     index.add_argument("--q", required=True, help="configuration, comma-separated [rad], e.g. 1.2,1.8,-2.9,1.5")
     index.add_argument("--degrees", action="store_true", help="read --q in degrees")
-    index.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")
-    index.add_argument("--time", type=float, default=0.0, help="time at which moving obstacles are placed [s]")
-    index.add_argument("--geometry", choices=("convex", "mesh"), default="convex", help="robot collision geometry")
-    index.add_argument("--length-unit", type=float, default=0.01, help="index length unit L_ref [m] (default 0.01: cm)")
-    index.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")
+    _add_evaluation_options(index)
     index.add_argument("--json", action="store_true", help="print JSON")
     index.set_defaults(func=cmd_index)
 
@@ -406,10 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     map_.add_argument("--robot", help="URDF path, shipped or example-robot-data name (default planar4)")
     map_.add_argument("--target", help="hand target, comma-separated [m]: X,Y (planar) or X,Y,Z")
-    map_.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")
     if _has_scenarios():
         map_.add_argument("--scenario", help="scenario TOML file: robot, scene, index and (at --time) the target")
-    map_.add_argument("--time", type=float, default=0.0, help="time at which moving obstacles are placed [s]")
     map_.add_argument("--out", help="write the map to this PNG file")
     map_.add_argument("--surface", action="store_true", help="also write the 3-D surface to <out>_surface.png")
     map_.add_argument("--json", action="store_true", help="print JSON (genes in degrees, configuration, S, peaks)")
@@ -417,9 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
     map_.add_argument("--top-k", type=int, default=4, help="number of peaks to report (default 4)")
     map_.add_argument("--samples", type=int, help="Halton samples for arms with more than two genes")
     map_.add_argument("--seed", type=int, default=0, help="random shift of the samples (default 0)")
-    map_.add_argument("--geometry", choices=("convex", "mesh"), default="convex", help="robot collision geometry")
-    map_.add_argument("--length-unit", type=float, default=0.01, help="index length unit L_ref [m] (default 0.01: cm)")
-    map_.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")
+    _add_evaluation_options(map_)
     map_.set_defaults(func=cmd_map)
     return parser
 
