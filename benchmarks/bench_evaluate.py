@@ -37,7 +37,7 @@ def naive_amsip(robot: Robot, scene: pc.Scene, Q: np.ndarray) -> np.ndarray:
         for fid, p in zip(robot.control_frame_ids, robot.structural_ranks, strict=True):
             M = pin.getFrameJacobian(model, data, fid, frame)[robot.point_rows] @ N
             E += unit_ball_volume(p) * np.prod(np.linalg.svd(M, compute_uv=False)[:p]) / 0.01**p
-        d = clearance.per_link(clearance.pair_distances(data)[None])[0]
+        d = clearance.per_link(np.array([clearance.pair_distances(data)]))[0]
         out[b] = ev.potential.apply(np.array([E]), d[None])[0][0]
     return out
 
@@ -83,7 +83,7 @@ def main() -> None:
 
     ball = pc.Scene((pc.Obstacle("ball", pc.Sphere(0.1), Static(np.array([0.4, 0.2, 0.5]))),))
     for name in ("panda", "ur5"):
-        for geometry in ("convex", "mesh"):
+        for geometry in ("capsules", "convex", "mesh"):
             robot = pc.load_robot(name, geometry=geometry)
             ev = pc.Evaluator(robot, ball)
             Q = robot.random_configurations(rng, 64)

@@ -24,7 +24,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl import planar, planar_distance
-from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics
+from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics, kinematics_reader
 from previewctl.errors import ConfigurationError
 from previewctl.motion import Static
 from previewctl.robot import PlanarChain, Robot
@@ -137,6 +137,7 @@ class Evaluator:
         self.index, self.potential = index or IndexParams(), potential or Potential()
         self.method: Method = method
         self.data = robot.model.createData()
+        self._kinematics = kinematics_reader(robot, self.data)
         self.clearance = Clearance(robot, self.scene)
         # static obstacles: their planar kernels are built (and validated) once
         self._static_kernels = {
@@ -178,12 +179,14 @@ class Evaluator:
 
     def _general(self, Q: Array, t: float) -> Evaluation:
         self.clearance.set_time(t)
-        pairs = np.empty((Q.shape[0], len(self.clearance.pair_links)))
+        rows: list[list[float]] = []
 
-        def fill(b: int, data: pin.Data) -> None:
-            pairs[b] = self.clearance.pair_distances(data)
+        def fill(data: pin.Data) -> None:
+            rows.append(self.clearance.pair_distances(data))
 
-        kin = kinematics(self.robot, Q, self.data, fill if len(self.clearance.pair_links) else None)
+        measure = fill if len(self.clearance.pair_links) else None
+        kin = kinematics(self.robot, Q, after_each=measure, reader=self._kinematics)
+        pairs = np.array(rows).reshape(Q.shape[0], len(self.clearance.pair_links))
         distances = self.clearance.per_link(pairs)
         return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 

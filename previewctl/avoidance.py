@@ -1,11 +1,12 @@
 """Avoidance manipulability (paper eqs. 3-17) for one configuration or a batch.
 
-For each configuration, Pinocchio computes the kinematics once (joint Jacobians, frame placements);
-the task Jacobian ``J_n`` and the control-point Jacobians ``J_i`` are read from it, then the linear
-algebra runs batched over the whole population:
+For each configuration, Pinocchio computes the kinematics once (joint placements and Jacobians);
+the task Jacobian ``J_n`` and the control-point Jacobians ``J_i`` are assembled from it for the whole
+batch (:class:`FrameKinematics`), then the linear algebra runs batched over the population too:
 
-* ``N = I - J_n^+ J_n`` (eq. 3). ``J_n^+`` is the SVD pseudo-inverse; singular values below
-  ``rank_tolerance * sigma_max(J_n)`` count as zero (default ``1e-9``).
+* ``N = I - J_n^+ J_n`` (eq. 3) with ``J_n^+ = J_n^T (J_n J_n^T)^+``; singular values below
+  ``max(rank_tolerance, ~1e-7) * sigma_max(J_n)`` count as zero (``rank_tolerance`` defaults to
+  ``1e-9``; ``1e-7`` is what the m x m Gram matrix resolves, see :func:`gram_pseudo_inverse`).
 * ``M_i = J_i N`` (eq. 6), its singular values ``sigma_i1 >= sigma_i2 >= ...``.
 * ``V_i = c_p * sigma_i1 ... sigma_ip`` (eqs. 13-15) with ``c_p`` the volume of the unit p-ball
   (eq. 14) and ``p`` the point's *structural* rank (its rank at generic configurations), so that
@@ -88,44 +89,114 @@ class Kinematics:
     J_points: Array
 
 
+# entries of the row-major 3 x 3 matrix -[p]x (so that -[p]x w = w x p), from p[source] * sign
+_SKEW_SLOTS = np.array([1, 2, 3, 5, 6, 7])
+_SKEW_SOURCES = np.array([2, 1, 2, 0, 1, 0])
+_SKEW_SIGNS = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
+
+
+class FrameKinematics:
+    """Placements and world-aligned Jacobians of chosen frames, for batches of configurations.
+
+    Per configuration, one Pinocchio call (``computeJointJacobians``) fills the joint placements and
+    the world-frame joint Jacobian ``data.J``; both are copied out through references held once (each
+    lookup through the bindings costs about a microsecond, more than the kinematics itself). The frame
+    Jacobians are then assembled for the whole batch: a frame at ``p`` [m] moves with the columns of the
+    joints that support it as ``(v_j + w_j x p, w_j)``, where ``(v_j, w_j)`` is column ``j`` of
+    ``data.J`` -- what ``pin.getFrameJacobian(..., LOCAL_WORLD_ALIGNED)`` returns, for all frames and
+    configurations at once.
+
+    Args:
+        model: the Pinocchio model.
+        frame_ids: the frames to follow.
+        data: the ``Data`` to fill (one is created if ``None``).
+    """
+
+    def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None) -> None:
+        self.model = model
+        self.data = model.createData() if data is None else data
+        parents = [int(model.frames[f].parentJoint) for f in frame_ids]
+        joints = sorted(set(parents))
+        self._slot = np.array([joints.index(j) for j in parents], dtype=int)
+        offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
+        self._moved = np.array([k for k, h in enumerate(offsets) if not np.allclose(h, np.eye(4))], dtype=int)
+        self._offset = np.array(offsets).reshape(-1, 4, 4)[self._moved]
+        self._support = np.zeros((len(frame_ids), 6, model.nv))  # full shape: a fast broadcast
+        for k, parent in enumerate(parents):
+            for j in model.supports[parent]:
+                joint = model.joints[j]
+                if j > 0:
+                    self._support[k, :, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
+        placements = list(self.data.oMi)  # element references, read without a lookup each
+        self._placements = [placements[j] for j in joints]
+
+    def __call__(self, Q: Array, after_each: Callable[[pin.Data], None] | None = None) -> tuple[Array, Array]:
+        """Placements ``(B, K, 4, 4)`` and Jacobians ``(B, K, 6, nv)`` (linear rows first) of the frames.
+
+        Args:
+            Q: ``(B, nq)`` validated configurations.
+            after_each: called as ``after_each(data)`` once the joint placements of each configuration
+                are in ``data``, in batch order (the scene uses it to compute distances on the same pass).
+        """
+        model, data, joint_J, placements = self.model, self.data, self._joint_J, self._placements
+        B, K = Q.shape[0], len(self._slot)
+        joint_jacobians, homogeneous = [], []  # appended, stacked once: cheaper than B x S row writes
+        for q in Q:
+            pin.computeJointJacobians(model, data, q)
+            joint_jacobians.append(joint_J.copy())
+            for placement in placements:
+                homogeneous.append(placement.homogeneous)
+            if after_each is not None:
+                after_each(data)
+        frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)[:, self._slot]
+        if self._moved.size:
+            frames[:, self._moved] = frames[:, self._moved] @ self._offset
+        # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
+        # matrix product for all frames of a configuration, then the support mask
+        J = np.array(joint_jacobians)
+        cross = np.zeros((B, K, 9))
+        cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
+        jacobians = np.empty((B, K, 6, model.nv))
+        jacobians[:, :, :3] = (cross.reshape(B, 3 * K, 3) @ J[:, 3:]).reshape(B, K, 3, model.nv)
+        jacobians[:, :, :3] += J[:, None, :3]
+        jacobians[:, :, 3:] = J[:, None, 3:]
+        jacobians *= self._support
+        return frames, jacobians
+
+
 def kinematics(
     robot: Robot,
     Q: Array,
     data: pin.Data | None = None,
-    after_each: Callable[[int, pin.Data], None] | None = None,
+    after_each: Callable[[pin.Data], None] | None = None,
+    reader: FrameKinematics | None = None,
 ) -> Kinematics:
-    """Forward kinematics and Jacobians, one Pinocchio pass per configuration.
+    """Hand and control-point kinematics, one Pinocchio pass per configuration.
 
     Args:
         robot: the arm.
         Q: ``(B, nq)`` validated configurations.
-        data: a Pinocchio ``Data`` to reuse (one is created if ``None``).
-        after_each: called as ``after_each(b, data)`` once the joint placements of configuration
-            ``b`` are in ``data`` (the scene uses it to compute distances on the same pass).
+        data: a Pinocchio ``Data`` to reuse (one is created if ``None``; ignored with ``reader``).
+        after_each: see :meth:`FrameKinematics.__call__`.
+        reader: a :class:`FrameKinematics` of :func:`kinematics_reader` to reuse.
     """
-    model = robot.model
-    data = model.createData() if data is None else data
-    rows, point_rows = robot.task_rows, robot.point_rows
-    tip_id, point_ids = robot.tip_frame_id, robot.control_frame_ids
-    B, k = Q.shape[0], len(point_ids)
-    tip_position, tip_rotation = np.empty((B, 3)), np.empty((B, 3, 3))
-    J_task = np.empty((B, rows.stop - rows.start, robot.nv))
-    point_positions = np.empty((B, k, 3))
-    J_points = np.empty((B, k, point_rows.stop - point_rows.start, robot.nv))
-    frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    placements = data.oMf  # held once: each attribute lookup through the bindings costs microseconds
-    for b in range(B):
-        pin.computeJointJacobians(model, data, Q[b])
-        pin.updateFramePlacements(model, data)
-        tip = placements[tip_id]
-        tip_position[b], tip_rotation[b] = tip.translation, tip.rotation
-        J_task[b] = pin.getFrameJacobian(model, data, tip_id, frame)[rows]
-        for i, fid in enumerate(point_ids):
-            point_positions[b, i] = placements[fid].translation
-            J_points[b, i] = pin.getFrameJacobian(model, data, fid, frame)[point_rows]
-        if after_each is not None:
-            after_each(b, data)
-    return Kinematics(Q, tip_position, tip_rotation, J_task, point_positions, J_points)
+    reader = kinematics_reader(robot, data) if reader is None else reader
+    frames, jacobians = reader(Q, after_each)
+    tip = frames[:, -1]
+    return Kinematics(
+        Q,
+        tip[:, :3, 3],
+        tip[:, :3, :3],
+        jacobians[:, -1, robot.task_rows],
+        frames[:, :-1, :3, 3],
+        jacobians[:, :-1, robot.point_rows],
+    )
+
+
+def kinematics_reader(robot: Robot, data: pin.Data | None = None) -> FrameKinematics:
+    """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip."""
+    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data)
 
 
 @dataclass(frozen=True)
@@ -157,20 +228,67 @@ class AvoidanceResult:
     amsi: Array
 
 
+def gram_pseudo_inverse(J: Array, rank_tolerance: float = 1e-9) -> Array:
+    """``(J J^T)^+`` for ``J`` of shape ``(..., m, n)``; returns ``(..., m, m)``.
+
+    Eigenvalues of ``J J^T`` below ``c * lambda_max`` count as zero, with ``c = max(rank_tolerance^2,
+    10 n eps)``: singular values of ``J`` below ``rank_tolerance * sigma_max``, and those the Gram
+    matrix cannot resolve from rounding (below about ``1e-7 sigma_max``), are treated as zero (a
+    symmetric eigendecomposition). For ``m <= 3`` the well-conditioned matrices (``lambda_min /
+    lambda_max`` above about ``1e-8``, where the plain inverse is the pseudo-inverse) are inverted in
+    closed form, several times faster than LAPACK on stacks of small matrices.
+    """
+    gram = J @ np.ascontiguousarray(np.swapaxes(J, -1, -2))
+    cutoff = max(rank_tolerance**2, 10 * J.shape[-1] * float(np.finfo(float).eps))
+    m = gram.shape[-1]
+    if m > 3 or gram.size == 0:
+        return _eigh_pseudo_inverse(gram, cutoff)
+    adjugate, det = _adjugate(gram)
+    trace = np.trace(gram, axis1=-2, axis2=-1)
+    good = det > 1e-8 * (trace / m) ** m  # >= lambda_min lambda_max^(m-1) / m^m: conditioning
+    out = adjugate / np.where(good, det, 1.0)[..., None, None]
+    if not good.all():
+        out[~good] = _eigh_pseudo_inverse(gram[~good], cutoff)
+    return out
+
+
+def _adjugate(G: Array) -> tuple[Array, Array]:
+    """Adjugate and determinant of symmetric ``G`` ``(..., m, m)``, ``m <= 3``, in closed form."""
+    m = G.shape[-1]
+    adj = np.empty_like(G)
+    if m == 1:
+        adj[..., 0, 0] = 1.0
+        return adj, G[..., 0, 0]
+    if m == 2:
+        adj[..., 0, 0], adj[..., 1, 1] = G[..., 1, 1], G[..., 0, 0]
+        adj[..., 0, 1] = adj[..., 1, 0] = -G[..., 0, 1]
+        return adj, G[..., 0, 0] * G[..., 1, 1] - G[..., 0, 1] ** 2
+    a, b, c = G[..., 0, 0], G[..., 0, 1], G[..., 0, 2]
+    d, e, f = G[..., 1, 1], G[..., 1, 2], G[..., 2, 2]
+    adj[..., 0, 0] = d * f - e * e
+    adj[..., 1, 1] = a * f - c * c
+    adj[..., 2, 2] = a * d - b * b
+    adj[..., 0, 1] = adj[..., 1, 0] = c * e - b * f
+    adj[..., 0, 2] = adj[..., 2, 0] = b * e - c * d
+    adj[..., 1, 2] = adj[..., 2, 1] = b * c - a * e
+    return adj, a * adj[..., 0, 0] + b * adj[..., 0, 1] + c * adj[..., 0, 2]
+
+
+def _eigh_pseudo_inverse(G: Array, cutoff: float) -> Array:
+    lam, vec = np.linalg.eigh(G)
+    keep = lam > cutoff * lam[..., -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)
+    return (vec * inv[..., None, :]) @ np.swapaxes(vec, -1, -2)
+
+
 def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
     """``N = I - J^+ J`` for ``J`` of shape ``(..., m, n)``; returns ``(..., n, n)``.
 
-    ``J^+ = J^T (J J^T)^+`` with ``(J J^T)^+`` from a symmetric eigendecomposition (an m x m problem
-    instead of an SVD of J): eigenvalues below ``rank_tolerance^2 * lambda_max`` -- singular values
-    of J below ``rank_tolerance * sigma_max`` -- count as zero.
+    ``J^+ = J^T (J J^T)^+`` (:func:`gram_pseudo_inverse`, an m x m problem instead of an SVD of J,
+    which also states the rank threshold).
     """
-    n = J.shape[-1]
-    JT = np.swapaxes(J, -1, -2)
-    lam, vec = np.linalg.eigh(J @ JT)
-    keep = lam > rank_tolerance**2 * lam[..., -1:]
-    inv = np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)
-    gram_pinv = (vec * inv[..., None, :]) @ np.swapaxes(vec, -1, -2)
-    return np.eye(n) - JT @ gram_pinv @ J
+    JT = np.ascontiguousarray(np.swapaxes(J, -1, -2))
+    return np.eye(J.shape[-1]) - JT @ gram_pseudo_inverse(J, rank_tolerance) @ J
 
 
 def elementary_symmetric(G: Array, p: int) -> Array:
@@ -210,14 +328,21 @@ def amsi_from_volumes(volumes: Array, ranks: tuple[int, ...] | NDArray[np.int_],
 
 
 def amsi_from_kinematics(robot: Robot, kin: Kinematics, params: IndexParams) -> Array:
-    """AMSI ``(B,)`` without an SVD: ``V_i = c_p sqrt(e_p(M_i M_i^T))`` with the structural ``p``."""
-    N = null_space_projector(kin.J_task, params.rank_tolerance)
-    M = kin.J_points @ N[:, None]
-    G = M @ np.swapaxes(M, -1, -2)
-    volumes = np.zeros(G.shape[:2])
+    """AMSI ``(B,)`` without an SVD: ``V_i = c_p sqrt(e_p(M_i M_i^T))`` with the structural ``p``.
+
+    ``N`` is symmetric and idempotent, so ``M_i M_i^T = J_i N J_i^T = J_i J_i^T - A_i (J_n J_n^T)^+ A_i^T``
+    with ``A_i = J_i J_n^T``: small ``d x m`` products instead of ``n x n`` ones.
+    """
+    B, k, d, nv = kin.J_points.shape
+    J_points = kin.J_points.reshape(B, k * d, nv)
+    A = J_points @ np.ascontiguousarray(np.swapaxes(kin.J_task, 1, 2))
+    G = J_points @ np.ascontiguousarray(np.swapaxes(J_points, 1, 2))
+    G -= A @ gram_pseudo_inverse(kin.J_task, params.rank_tolerance) @ np.ascontiguousarray(np.swapaxes(A, 1, 2))
+    volumes = np.zeros((B, k))
     for i, p in enumerate(robot.structural_ranks):
         if p > 0:
-            volumes[:, i] = unit_ball_volume(p) * np.sqrt(np.maximum(elementary_symmetric(G[:, i], p), 0.0))
+            block = G[:, i * d : (i + 1) * d, i * d : (i + 1) * d]
+            volumes[:, i] = unit_ball_volume(p) * np.sqrt(np.maximum(elementary_symmetric(block, p), 0.0))
     return amsi_from_volumes(volumes, robot.structural_ranks, params)
 
 

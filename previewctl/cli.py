@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from previewctl.errors import PreviewctlError
+from previewctl.robot import GEOMETRY_CHOICES
 
 EXIT_USAGE = 2
 
@@ -338,7 +339,8 @@ def _add_evaluation_options(parser: argparse.ArgumentParser) -> None:
     """Scene, time, geometry and index options shared by ``index`` and ``map``."""
     parser.add_argument("--scene", help="scene TOML file with [[obstacles]] tables")
     parser.add_argument("--time", type=float, default=0.0, help="time at which moving obstacles are placed [s]")
-    parser.add_argument("--geometry", choices=("convex", "mesh"), default="convex", help="robot collision geometry")
+    parser.add_argument("--geometry", choices=GEOMETRY_CHOICES, default="convex",
+                        help="robot collision geometry: convex hulls (default), enclosing capsules, or exact meshes")
     parser.add_argument("--length-unit", type=float, default=0.01,
                         help="index length unit L_ref [m] (default 0.01: cm)")
     parser.add_argument("--influence", type=float, default=0.15, help="potential influence distance d_0 [m]")

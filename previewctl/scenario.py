@@ -66,7 +66,7 @@ from previewctl.avoidance import IndexParams
 from previewctl.control import CONTROLLER_NAMES, ControllerParams, ControllerSpec, check_preview_weights
 from previewctl.errors import PreviewctlError, ScenarioError
 from previewctl.motion import rpy_to_matrix
-from previewctl.robot import Robot, load_robot
+from previewctl.robot import GEOMETRY_CHOICES, Robot, load_robot
 from previewctl.scene import Scene, scene_from_dict
 from previewctl.trajectory import HandPath
 from previewctl.validation import show as _show
@@ -111,7 +111,7 @@ class RobotSpec:
     package_dirs: tuple[str, ...] = ()
 
     def load(self, geometry: str | None = None) -> Robot:
-        """Load the robot, optionally with another ``geometry`` (``"convex"`` or ``"mesh"``)."""
+        """Load the robot, optionally with another ``geometry`` (one of ``GEOMETRY_CHOICES``)."""
         return load_robot(
             self.source,
             tip=self.tip,
@@ -385,7 +385,7 @@ def _robot_spec(rd: _Reader, table: Mapping[str, Any], base: Path) -> tuple[Robo
         control_points=rd.strings(table["control_points"], "robot.control_points")
         if "control_points" in table
         else None,
-        geometry=rd.string(table.get("geometry", "convex"), "robot.geometry", ("convex", "mesh")),
+        geometry=rd.string(table.get("geometry", "convex"), "robot.geometry", GEOMETRY_CHOICES),
         package_dirs=tuple(
             str(base / d) if not Path(d).is_absolute() else d
             for d in rd.strings(table.get("package_dirs", []), "robot.package_dirs")

@@ -294,7 +294,8 @@ class Clearance:
     """Distances between a robot's guarded geometry and a scene, through one Pinocchio geometry model.
 
     Attributes:
-        link_distances: ``(L,)`` buffer of the last computed minimum distance per guarded link [m].
+        pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
+        pair_obstacles: ``(P,)`` obstacle index of each pair.
     """
 
     def __init__(self, robot: Robot, scene: Scene) -> None:
@@ -319,33 +320,39 @@ class Clearance:
                 pair_obstacles.append(k)
         self.pair_links = np.array(pair_links, dtype=int)
         self.pair_obstacles = np.array(pair_obstacles, dtype=int)
+        # pairs grouped by link, for one minimum.reduceat per batch
+        self._by_link = np.argsort(self.pair_links, kind="stable")
+        self._links_present, self._link_starts = np.unique(self.pair_links[self._by_link], return_index=True)
         self.data = self.geometry.createData()
         for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
             request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
             with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
                 warnings.simplefilter("ignore", DeprecationWarning)
                 request.enable_cached_gjk_guess = False
-        self._results = self.data.distanceResults  # held once: lookups through the bindings are slow
+        self._results = list(self.data.distanceResults)  # element references: no lookup per read
         self._time = 0.0
 
     def set_time(self, t: float) -> None:
-        """Move the obstacles to their placements at time ``t`` [s]."""
+        """Move the obstacles to their placements at time ``t`` [s] (nothing to do if already there)."""
+        if float(t) == self._time:
+            return
         self._time = float(t)
         for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
             self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
 
-    def pair_distances(self, data: pin.Data) -> Array:
-        """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``."""
+    def pair_distances(self, data: pin.Data) -> list[float]:
+        """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
+
+        A plain list: a batch collects one per configuration and converts them to an array once.
+        """
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
-        results = self._results
-        return np.array([results[i].min_distance for i in range(len(self.pair_links))])
+        return [result.min_distance for result in self._results]
 
     def per_link(self, pair_distances: Array) -> Array:
         """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""
         out = np.full((pair_distances.shape[0], len(self.robot.guarded_links)), np.inf)
-        for link in range(out.shape[1]):
-            mask = self.pair_links == link
-            if mask.any():
-                out[:, link] = pair_distances[:, mask].min(axis=1)
+        if self._links_present.size:
+            grouped = pair_distances[:, self._by_link]
+            out[:, self._links_present] = np.minimum.reduceat(grouped, self._link_starts, axis=1)
         return out

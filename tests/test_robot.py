@@ -136,6 +136,42 @@ def test_geometry_choice(planar4: Robot, panda: Robot, panda_mesh: Robot) -> Non
     assert all(isinstance(g.geometry, coal.Capsule) for g in planar4.collision_model.geometryObjects)
 
 
+@pytest.mark.parametrize("shape", [(0.05, 0.02, 0.3), (0.1, 0.1, 0.1), (0.2, 0.01, 0.01)])
+def test_enclosing_capsule_contains_the_points_tightly(shape: tuple[float, float, float]) -> None:
+    """Long, round and flat point clouds: every point inside, one on the surface, a proper rotation."""
+    from previewctl.robot import enclosing_capsule
+
+    rng = np.random.default_rng(7)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    points = (rng.normal(size=(400, 3)) * shape) @ rotation.T + [0.3, -0.1, 0.5]
+    radius, half_length, placement = enclosing_capsule(points)
+    R = placement.rotation
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    local = (points - placement.translation) @ R
+    on_axis = np.clip(local[:, 2], -half_length, half_length)
+    distance = np.sqrt(local[:, 0] ** 2 + local[:, 1] ** 2 + (local[:, 2] - on_axis) ** 2)
+    assert distance.max() <= radius + 1e-12
+    assert distance.max() == pytest.approx(radius, rel=1e-9)
+
+
+def test_capsule_geometry_covers_the_meshes(panda_mesh: Robot) -> None:
+    """geometry="capsules": one Coal capsule per mesh, on the same frame, containing every mesh vertex."""
+    capsules = load_robot("panda", geometry="capsules")
+    assert capsules.guarded_links == panda_mesh.guarded_links
+    for capsule, mesh in zip(
+        capsules.collision_model.geometryObjects, panda_mesh.collision_model.geometryObjects, strict=True
+    ):
+        assert isinstance(capsule.geometry, coal.Capsule)
+        assert capsule.parentFrame == mesh.parentFrame
+        M, C = mesh.placement, capsule.placement  # both in the parent joint frame
+        vertices = np.asarray(mesh.geometry.vertices()) @ M.rotation.T + M.translation
+        local = (vertices - C.translation) @ C.rotation
+        half = capsule.geometry.halfLength
+        gap = local - np.column_stack([np.zeros((len(local), 2)), np.clip(local[:, 2], -half, half)])
+        assert np.linalg.norm(gap, axis=1).max() <= capsule.geometry.radius + 1e-9
+
+
 def test_task_choices() -> None:
     pose = load_robot("planar4", task="pose")
     assert pose.task == "pose"
