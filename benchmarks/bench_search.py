@@ -5,8 +5,8 @@
    configuration at a time (closed-form solve, then ``Evaluator(method="general")``: Pinocchio + Coal,
    the way one would write it without vectorising). The loop runs over a random subset of the grid and
    is extrapolated to the full grid (said so in the output).
-2. One generation of the 1-step GA (population 64) on planar4 and on the Panda (convex collision
-   geometry, one sphere obstacle), with the share of the AMSIP evaluation, and how many
+2. One generation of the 1-step GA (population 64) on planar4 and on the Panda (capsule and convex
+   collision geometry, one sphere obstacle), with the share of the AMSIP evaluation, and how many
    generations fit in a 33 ms camera frame.
 
 Wall times are medians; CPU times (process time) are printed too, since a shared machine inflates wall
@@ -69,8 +69,8 @@ def bench_grid() -> None:
     print(f"  speed-up                       {w_loop * scale / wall:8.0f} x wall {c_loop * scale / cpu:8.0f} x CPU")
 
 
-def bench_ga(name: str, robot_name: str, scene: Scene, target: np.ndarray) -> None:
-    robot = load_robot(robot_name, geometry="convex")
+def bench_ga(name: str, robot_name: str, scene: Scene, target: np.ndarray, geometry: str = "convex") -> None:
+    robot = load_robot(robot_name, geometry=geometry)
     evaluator = Evaluator(robot, scene)
     red = redundancy_map(robot)
     ga = OneStepGA(robot, evaluator, red, np.random.default_rng(0), population=64)
@@ -92,7 +92,8 @@ def main() -> None:
     planar_scene = Scene((Obstacle("table", Box((1.2, 0.4, 0.4)), Static(np.array([1.3, -0.55, 0.0]))),))
     bench_ga("planar4", "planar4", planar_scene, np.array([0.85, 0.65]))
     panda_scene = Scene((Obstacle("ball", Sphere(0.08), Static(np.array([0.35, 0.0, 0.35]))),))
-    bench_ga("panda  ", "panda", panda_scene, np.array([0.5, 0.1, 0.4]))
+    for geometry in ("capsules", "convex"):
+        bench_ga(f"panda ({geometry})", "panda", panda_scene, np.array([0.5, 0.1, 0.4]), geometry)
 
 
 if __name__ == "__main__":

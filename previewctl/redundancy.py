@@ -33,8 +33,9 @@ self-motion manifold). A :class:`RedundancyMap` parameterises them:
   stalling. Continuous joints (``nq != nv``) move through ``pin.integrate`` and are never clipped. The
   iteration stops per configuration once the position error is below ``tolerance`` (default
   ``1e-4`` m) and, for a pose task, the rotation error below ``angle_tolerance`` (default ``1e-3``
-  rad); ``reachable`` is that test after at most ``iterations`` steps -- so a start far from the
-  manifold may be flagged unreachable although the target is reachable from elsewhere. The map is a
+  rad), or once its position error has not shrunk by 10 % in ``patience`` + 1 steps (default 3 + 1:
+  stuck); ``reachable`` is the tolerance test after at most ``iterations`` steps -- so a start far
+  from the manifold may be flagged unreachable although the target is reachable from elsewhere. The map is a
   deterministic function of the genes (with no ``q_seed``); ``q_seed`` replaces the start (a warm
   start, e.g. last frame's solution). There is a single branch.
 
@@ -53,6 +54,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.amsip import Evaluator
+from previewctl.avoidance import FrameKinematics
 from previewctl.errors import ConfigurationError
 from previewctl.robot import Robot
 from previewctl.validation import show as _show
@@ -386,6 +388,9 @@ class NewtonRedundancy:
         iterations: the most Newton steps per call (default 20; converged rows stop early).
         damping: largest ``lambda`` [m] of the damped least squares (default 0.02; see the module docstring).
         max_step: largest task-error norm [m] corrected per step (default 0.2).
+        patience: steps a configuration may go without shrinking its position error by 10 % before
+            it stops as unreachable from its start (default 3: stuck against joint limits or a
+            singularity; the few such rows would otherwise cost every remaining iteration).
 
     Attributes:
         gene_lower, gene_upper: ``(nv,)`` bounds [rad]: the joint limits, ``[-pi, pi)`` for continuous
@@ -405,16 +410,20 @@ class NewtonRedundancy:
         iterations: int = 20,
         damping: float = 0.02,
         max_step: float = 0.2,
+        patience: int = 3,
     ) -> None:
         for name, value in (("tolerance", tolerance), ("angle_tolerance", angle_tolerance),
                             ("damping", damping), ("max_step", max_step)):
             if not (np.isfinite(value) and value > 0):
                 raise ConfigurationError(f"{name} must be > 0, got {value!r}")
-        if not (isinstance(iterations, int) and iterations >= 0):
-            raise ConfigurationError(f"iterations must be a non-negative integer, got {iterations!r}")
+        for name, count in (("iterations", iterations), ("patience", patience)):
+            if isinstance(count, bool) or not (isinstance(count, int) and count >= 0):
+                raise ConfigurationError(f"{name} must be a non-negative integer, got {count!r}")
+        self.patience = patience
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
+        self._tip = FrameKinematics(robot.model, (robot.tip_frame_id,), self.data)
         self.tolerance, self.angle_tolerance = float(tolerance), float(angle_tolerance)
         self.iterations, self.damping = iterations, float(damping)
         self.max_step = float(max_step)
@@ -477,11 +486,12 @@ class NewtonRedundancy:
         angular = np.array([pin.log3(goal.rotation @ R.T) for R in rotations]).reshape(-1, 3)
         return np.concatenate([linear, angular], axis=1)
 
-    def _converged(self, err: Array) -> NDArray[np.bool_]:
-        pos = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1) < self.tolerance
+    def _converged(self, err: Array, size: Array) -> NDArray[np.bool_]:
+        """Rows of ``err`` ``(A, m)`` within tolerance; ``size`` ``(A,)`` is the position-error norm [m]."""
+        done = size < self.tolerance
         if self.m == 6:
-            pos &= np.linalg.norm(err[:, 3:], axis=1) < self.angle_tolerance
-        return pos
+            done &= np.sqrt(np.einsum("ij,ij->i", err[:, 3:], err[:, 3:])) < self.angle_tolerance
+        return done
 
     def _clip_limits(self, Q: Array) -> Array:
         """Clip the bounded joints of configurations ``(A, nq)`` to their limits (in place)."""
@@ -489,24 +499,23 @@ class NewtonRedundancy:
             Q[:, self._clip] = np.clip(Q[:, self._clip], self._q_lower, self._q_upper)
         return Q
 
-    def _step(self, J: Array, err: Array, Q: Array) -> Array:
-        """Damped least-squares steps ``(A, nv)``; joints at a limit that the step pushes further are frozen."""
-        JT = np.swapaxes(J, 1, 2)
-        norm = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1)
-        eye = (self.damping**2 * np.clip(norm / self.max_step, 1e-3, 1.0))[:, None, None] * np.eye(self.m)
-        step = (JT @ np.linalg.solve(J @ JT + eye, err[..., None]))[..., 0]
+    def _step(self, J: Array, err: Array, size: Array, Q: Array) -> Array:
+        """Damped least-squares steps ``(A, nv)`` for errors ``(A, m)`` of position norm ``size`` [m];
+        joints at a limit that the step pushes further are frozen."""
+        JT = np.ascontiguousarray(np.swapaxes(J, 1, 2))
+        damping = (self.damping**2 * np.clip(size / self.max_step, 1e-3, 1.0))[:, None, None] * np.eye(self.m)
+        step = (JT @ np.linalg.solve(J @ JT + damping, err[..., None]))[..., 0]
         if not self._clip.size:
             return step
-        q = Q[:, self._clip]
-        v = self._clip_v
-        blocked = np.zeros(step.shape, dtype=bool)
-        at_lower = (q <= self._q_lower + 1e-9) & (step[:, v] < 0)
-        blocked[:, v] = at_lower | ((q >= self._q_upper - 1e-9) & (step[:, v] > 0))
-        rows = blocked.any(axis=1)
+        q, pushed = Q[:, self._clip], step[:, self._clip_v]
+        blocked_v = ((q <= self._q_lower + 1e-9) & (pushed < 0)) | ((q >= self._q_upper - 1e-9) & (pushed > 0))
+        rows = blocked_v.any(axis=1)
         if rows.any():
-            Jf = J[rows] * (~blocked[rows])[:, None, :]
-            JfT = np.swapaxes(Jf, 1, 2)
-            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + eye[rows], err[rows][..., None]))[..., 0]
+            free = np.ones((int(rows.sum()), J.shape[2]))
+            free[:, self._clip_v] = ~blocked_v[rows]
+            Jf = J[rows] * free[:, None, :]
+            JfT = np.ascontiguousarray(np.swapaxes(Jf, 1, 2))
+            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + damping[rows], err[rows][..., None]))[..., 0]
         return step
 
     def solve(
@@ -523,6 +532,21 @@ class NewtonRedundancy:
         Returns:
             ``Q`` ``(B, nq)`` within the joint limits, ``reachable`` ``(B,)``: residual below tolerance.
         """
+        Q, reachable, _ = self.solve_with_jacobians(genes, branch, target, q_seed)
+        return Q, reachable
+
+    def solve_with_jacobians(
+        self,
+        genes: Array,
+        branch: NDArray[np.int_],
+        target: object,
+        q_seed: Array | None = None,
+        iterations: int | None = None,
+    ) -> tuple[Array, NDArray[np.bool_], Array]:
+        """:meth:`solve` (same arguments; ``iterations`` overrides the map's step budget), also
+        returning the task Jacobians ``(B, m, nv)`` at the reachable solutions (zero elsewhere): the
+        manifold's tangent space there is their null space."""
+        budget = self.iterations if iterations is None else iterations
         G, _ = _check_genes(genes, branch, self.robot.nv, self.branches)
         G = np.where(self.periodic, wrap_angle(G), np.clip(G, self.gene_lower, self.gene_upper))
         goal = parse_target(target, self.robot)
@@ -539,40 +563,37 @@ class NewtonRedundancy:
             if Q.shape[0] != G.shape[0]:
                 raise ConfigurationError(f"q_seed has {Q.shape[0]} rows, genes {G.shape[0]}")
             Q = Q.copy()
-        B, nv, m = G.shape[0], self.robot.nv, self.m
-        model, data = self.model, self.data
-        frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        B, m = G.shape[0], self.m
+        model = self.model
         active = np.arange(B)
         reachable = np.zeros(B, dtype=bool)
+        jacobians_at_solution = np.zeros((B, m, self.robot.nv))
+        best, stalls = np.full(B, np.inf), np.zeros(B, dtype=int)
         pose = goal.rotation is not None
-        for iteration in range(self.iterations + 1):
-            J = np.empty((active.size, m, nv))
-            positions = np.empty((active.size, 3))
-            rotations = np.empty((active.size, 3, 3)) if pose else None
-            for i, b in enumerate(active):
-                pin.computeJointJacobians(model, data, Q[b])
-                pin.updateFramePlacement(model, data, self.tip_id)
-                J[i] = pin.getFrameJacobian(model, data, self.tip_id, frame)[self.rows]
-                placement = data.oMf[self.tip_id]
-                positions[i] = placement.translation
-                if rotations is not None:
-                    rotations[i] = placement.rotation
-            err = self._task_error(goal, positions, rotations)
-            done = self._converged(err)
+        for iteration in range(budget + 1):
+            placements, jacobians = self._tip(Q[active])
+            J = jacobians[:, 0, self.rows]
+            err = self._task_error(goal, placements[:, 0, :3, 3], placements[:, 0, :3, :3] if pose else None)
+            linear = err[:, :3] if m >= 3 else err
+            size = np.sqrt(np.einsum("ij,ij->i", linear, linear))
+            done = self._converged(err, size)
             reachable[active[done]] = True
-            keep = ~done
-            active, J, err = active[keep], J[keep], err[keep]
-            if active.size == 0 or iteration == self.iterations:
+            jacobians_at_solution[active[done]] = J[done]
+            improved = size < 0.9 * best[active]
+            best[active] = np.where(improved, size, best[active])
+            stalls[active] = np.where(improved, 0, stalls[active] + 1)
+            keep = ~done & (stalls[active] <= self.patience)
+            active, J, err, size = active[keep], J[keep], err[keep], size[keep]
+            if active.size == 0 or iteration == budget:
                 break
-            norm = np.linalg.norm(err[:, :3] if m >= 3 else err, axis=1, keepdims=True)
-            err = err * np.minimum(1.0, self.max_step / np.maximum(norm, 1e-300))
-            step = self._step(J, err, Q[active])
+            scale = np.minimum(1.0, self.max_step / np.maximum(size, 1e-300))
+            step = self._step(J, err * scale[:, None], size * scale, Q[active])
             if self._vector_space:
                 Q[active] = self._clip_limits(Q[active] + step)
             else:
                 moved = np.stack([pin.integrate(model, Q[b], step[i]) for i, b in enumerate(active)])
                 Q[active] = self._clip_limits(moved)
-        return Q, reachable
+        return Q, reachable, jacobians_at_solution
 
 
 def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRedundancy:

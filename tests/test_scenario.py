@@ -151,7 +151,7 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
          r"path\.waypoints\[0\] must have 2 entries"),
         ({"path": {"waypoints": [[1.9069, 1.0417], [1.8, 1.0]], "duration": 0}}, r"path\.duration must be > 0"),
         ({"robot": {"source": "planar4", "q0": [0.6, 1.0, -1.2, -1.0], "geometry": "exact"}},
-         r"robot\.geometry = 'exact' is not valid; valid: convex, mesh"),
+         r"robot\.geometry = 'exact' is not valid; valid: convex, capsules, mesh"),
         ({"robot": {"source": "nosuchbot", "q0": [0.0]}}, r"robot: unknown robot 'nosuchbot'; valid: planar4"),
         ({"timing": {"dt": 2.0}}, r"timing\.dt = 2\.0 s is longer than timing\.duration"),
         ({"seed": -1}, r"seed must be >= 0"),
