@@ -33,9 +33,8 @@ self-motion manifold). A :class:`RedundancyMap` parameterises them:
   stalling. Continuous joints (``nq != nv``) move through ``pin.integrate`` and are never clipped. The
   iteration stops per configuration once the position error is below ``tolerance`` (default
   ``1e-4`` m) and, for a pose task, the rotation error below ``angle_tolerance`` (default ``1e-3``
-  rad), or once its position error has not shrunk by 10 % in ``patience`` + 1 steps (default 3 + 1:
-  stuck); ``reachable`` is the tolerance test after at most ``iterations`` steps -- so a start far
-  from the manifold may be flagged unreachable although the target is reachable from elsewhere. The map is a
+  rad); ``reachable`` is that test after at most ``iterations`` steps -- so a start far from the
+  manifold may be flagged unreachable although the target is reachable from elsewhere. The map is a
   deterministic function of the genes (with no ``q_seed``); ``q_seed`` replaces the start (a warm
   start, e.g. last frame's solution). There is a single branch.
 
@@ -388,9 +387,6 @@ class NewtonRedundancy:
         iterations: the most Newton steps per call (default 20; converged rows stop early).
         damping: largest ``lambda`` [m] of the damped least squares (default 0.02; see the module docstring).
         max_step: largest task-error norm [m] corrected per step (default 0.2).
-        patience: steps a configuration may go without shrinking its position error by 10 % before
-            it stops as unreachable from its start (default 3: stuck against joint limits or a
-            singularity; the few such rows would otherwise cost every remaining iteration).
 
     Attributes:
         gene_lower, gene_upper: ``(nv,)`` bounds [rad]: the joint limits, ``[-pi, pi)`` for continuous
@@ -410,16 +406,13 @@ class NewtonRedundancy:
         iterations: int = 20,
         damping: float = 0.02,
         max_step: float = 0.2,
-        patience: int = 3,
     ) -> None:
         for name, value in (("tolerance", tolerance), ("angle_tolerance", angle_tolerance),
                             ("damping", damping), ("max_step", max_step)):
             if not (np.isfinite(value) and value > 0):
                 raise ConfigurationError(f"{name} must be > 0, got {value!r}")
-        for name, count in (("iterations", iterations), ("patience", patience)):
-            if isinstance(count, bool) or not (isinstance(count, int) and count >= 0):
-                raise ConfigurationError(f"{name} must be a non-negative integer, got {count!r}")
-        self.patience = patience
+        if not (isinstance(iterations, int) and iterations >= 0):
+            raise ConfigurationError(f"iterations must be a non-negative integer, got {iterations!r}")
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
@@ -486,12 +479,11 @@ class NewtonRedundancy:
         angular = np.array([pin.log3(goal.rotation @ R.T) for R in rotations]).reshape(-1, 3)
         return np.concatenate([linear, angular], axis=1)
 
-    def _converged(self, err: Array, size: Array) -> NDArray[np.bool_]:
-        """Rows of ``err`` ``(A, m)`` within tolerance; ``size`` ``(A,)`` is the position-error norm [m]."""
-        done = size < self.tolerance
+    def _converged(self, err: Array) -> NDArray[np.bool_]:
+        pos = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1) < self.tolerance
         if self.m == 6:
-            done &= np.sqrt(np.einsum("ij,ij->i", err[:, 3:], err[:, 3:])) < self.angle_tolerance
-        return done
+            pos &= np.linalg.norm(err[:, 3:], axis=1) < self.angle_tolerance
+        return pos
 
     def _clip_limits(self, Q: Array) -> Array:
         """Clip the bounded joints of configurations ``(A, nq)`` to their limits (in place)."""
@@ -499,23 +491,24 @@ class NewtonRedundancy:
             Q[:, self._clip] = np.clip(Q[:, self._clip], self._q_lower, self._q_upper)
         return Q
 
-    def _step(self, J: Array, err: Array, size: Array, Q: Array) -> Array:
-        """Damped least-squares steps ``(A, nv)`` for errors ``(A, m)`` of position norm ``size`` [m];
-        joints at a limit that the step pushes further are frozen."""
+    def _step(self, J: Array, err: Array, Q: Array) -> Array:
+        """Damped least-squares steps ``(A, nv)``; joints at a limit that the step pushes further are frozen."""
         JT = np.ascontiguousarray(np.swapaxes(J, 1, 2))
-        damping = (self.damping**2 * np.clip(size / self.max_step, 1e-3, 1.0))[:, None, None] * np.eye(self.m)
-        step = (JT @ np.linalg.solve(J @ JT + damping, err[..., None]))[..., 0]
+        norm = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1)
+        eye = (self.damping**2 * np.clip(norm / self.max_step, 1e-3, 1.0))[:, None, None] * np.eye(self.m)
+        step = (JT @ np.linalg.solve(J @ JT + eye, err[..., None]))[..., 0]
         if not self._clip.size:
             return step
-        q, pushed = Q[:, self._clip], step[:, self._clip_v]
-        blocked_v = ((q <= self._q_lower + 1e-9) & (pushed < 0)) | ((q >= self._q_upper - 1e-9) & (pushed > 0))
-        rows = blocked_v.any(axis=1)
+        q = Q[:, self._clip]
+        v = self._clip_v
+        blocked = np.zeros(step.shape, dtype=bool)
+        at_lower = (q <= self._q_lower + 1e-9) & (step[:, v] < 0)
+        blocked[:, v] = at_lower | ((q >= self._q_upper - 1e-9) & (step[:, v] > 0))
+        rows = blocked.any(axis=1)
         if rows.any():
-            free = np.ones((int(rows.sum()), J.shape[2]))
-            free[:, self._clip_v] = ~blocked_v[rows]
-            Jf = J[rows] * free[:, None, :]
+            Jf = J[rows] * (~blocked[rows])[:, None, :]
             JfT = np.ascontiguousarray(np.swapaxes(Jf, 1, 2))
-            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + damping[rows], err[rows][..., None]))[..., 0]
+            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + eye[rows], err[rows][..., None]))[..., 0]
         return step
 
     def solve(
@@ -532,21 +525,6 @@ class NewtonRedundancy:
         Returns:
             ``Q`` ``(B, nq)`` within the joint limits, ``reachable`` ``(B,)``: residual below tolerance.
         """
-        Q, reachable, _ = self.solve_with_jacobians(genes, branch, target, q_seed)
-        return Q, reachable
-
-    def solve_with_jacobians(
-        self,
-        genes: Array,
-        branch: NDArray[np.int_],
-        target: object,
-        q_seed: Array | None = None,
-        iterations: int | None = None,
-    ) -> tuple[Array, NDArray[np.bool_], Array]:
-        """:meth:`solve` (same arguments; ``iterations`` overrides the map's step budget), also
-        returning the task Jacobians ``(B, m, nv)`` at the reachable solutions (zero elsewhere): the
-        manifold's tangent space there is their null space."""
-        budget = self.iterations if iterations is None else iterations
         G, _ = _check_genes(genes, branch, self.robot.nv, self.branches)
         G = np.where(self.periodic, wrap_angle(G), np.clip(G, self.gene_lower, self.gene_upper))
         goal = parse_target(target, self.robot)
@@ -567,33 +545,26 @@ class NewtonRedundancy:
         model = self.model
         active = np.arange(B)
         reachable = np.zeros(B, dtype=bool)
-        jacobians_at_solution = np.zeros((B, m, self.robot.nv))
-        best, stalls = np.full(B, np.inf), np.zeros(B, dtype=int)
         pose = goal.rotation is not None
-        for iteration in range(budget + 1):
+        for iteration in range(self.iterations + 1):
             placements, jacobians = self._tip(Q[active])
             J = jacobians[:, 0, self.rows]
             err = self._task_error(goal, placements[:, 0, :3, 3], placements[:, 0, :3, :3] if pose else None)
-            linear = err[:, :3] if m >= 3 else err
-            size = np.sqrt(np.einsum("ij,ij->i", linear, linear))
-            done = self._converged(err, size)
+            done = self._converged(err)
             reachable[active[done]] = True
-            jacobians_at_solution[active[done]] = J[done]
-            improved = size < 0.9 * best[active]
-            best[active] = np.where(improved, size, best[active])
-            stalls[active] = np.where(improved, 0, stalls[active] + 1)
-            keep = ~done & (stalls[active] <= self.patience)
-            active, J, err, size = active[keep], J[keep], err[keep], size[keep]
-            if active.size == 0 or iteration == budget:
+            keep = ~done
+            active, J, err = active[keep], J[keep], err[keep]
+            if active.size == 0 or iteration == self.iterations:
                 break
-            scale = np.minimum(1.0, self.max_step / np.maximum(size, 1e-300))
-            step = self._step(J, err * scale[:, None], size * scale, Q[active])
+            norm = np.linalg.norm(err[:, :3] if m >= 3 else err, axis=1, keepdims=True)
+            err = err * np.minimum(1.0, self.max_step / np.maximum(norm, 1e-300))
+            step = self._step(J, err, Q[active])
             if self._vector_space:
                 Q[active] = self._clip_limits(Q[active] + step)
             else:
                 moved = np.stack([pin.integrate(model, Q[b], step[i]) for i, b in enumerate(active)])
                 Q[active] = self._clip_limits(moved)
-        return Q, reachable, jacobians_at_solution
+        return Q, reachable
 
 
 def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRedundancy:

@@ -22,10 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.amsip import Evaluator
-from previewctl.avoidance import null_space_projector
 from previewctl.errors import ConfigurationError, UnreachableTargetError
 from previewctl.redundancy import (
-    NewtonRedundancy,
     PlanarRedundancy,
     RedundancyMap,
     joint_angles,
@@ -38,7 +36,6 @@ from previewctl.redundancy import (
 from previewctl.robot import Robot
 
 Array = NDArray[np.float64]
-_NURSERY_GENERATIONS = 3  # generations an immigrant of the Newton map may take to reach the manifold
 
 __all__ = ["Candidate", "Landscape", "OneStepGA", "explore", "gene_periodic", "halton", "joint_periodic"]
 
@@ -350,10 +347,7 @@ class OneStepGA:
     * elitism: the ``elite`` best individuals are copied unchanged; so are the stored peaks (below),
       which keeps several distinct optima alive;
     * immigrants: a fraction ``immigrants`` of fresh random individuals (new peaks can be found when an
-      obstacle moves). With the Newton map, an immigrant still off the manifold after
-      ``newton_steps`` keeps its partial projection and takes an immigrant slot again at the next
-      generation (for up to 3 generations), so random restarts need no longer projections per frame
-      than the offspring;
+      obstacle moves);
     * selection: tournaments of ``tournament`` individuals on S;
     * crossover (probability ``crossover_rate``): blend crossover BLX-``blend`` per gene,
       ``child = a + u (b - a)`` with ``u ~ U(-blend, 1 + blend)``; for periodic genes the difference is
@@ -362,10 +356,6 @@ class OneStepGA:
     * mutation: Gaussian on every gene with a per-child scale ``mutation_scale * 2^-u``,
       ``u ~ U(0, 5)`` (log-uniform: large exploring jumps and fine local steps in each generation),
       and a branch flip with probability ``branch_flip``;
-    * on the manifold's tangent (Newton map only): the child's displacement from its first parent
-      ``a`` -- crossover and mutation together -- is projected onto the null space of the task
-      Jacobian at ``a``, so the child starts off the manifold by second-order terms only and the
-      projection converges in a few steps (the planar map needs no projection: any genes are exact);
     * Lamarckian repair: a reachable individual's genes are replaced by the genes of its solved
       configuration (a no-op for the planar map; for the Newton map, the next frame's projection starts
       on the manifold and converges in a step or two);
@@ -387,9 +377,6 @@ class OneStepGA:
         crossover_rate: probability of crossover, in [0, 1].
         blend: BLX ``alpha`` (>= 0).
         branch_flip: probability of a branch flip, in [0, 1].
-        newton_steps: Newton map only: the most projection steps an individual gets per generation
-            (an individual needing more is too far from the manifold to matter this frame; the
-            tangent-space offspring need two to four; immigrants continue next generation).
     """
 
     def __init__(
@@ -409,7 +396,6 @@ class OneStepGA:
         crossover_rate: float = 0.9,
         blend: float = 0.5,
         branch_flip: float = 0.1,
-        newton_steps: int = 5,
     ) -> None:
         if not isinstance(rng, np.random.Generator):
             raise ConfigurationError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
@@ -417,7 +403,6 @@ class OneStepGA:
         self.elite = _check_positive_int("elite", elite)
         self.top_k = _check_positive_int("top_k", top_k)
         self.tournament = _check_positive_int("tournament", tournament)
-        self.newton_steps = _check_positive_int("newton_steps", newton_steps)
         if self.elite + self.top_k >= self.population:
             raise ConfigurationError(
                 f"elite + top_k must be below population: {self.elite} + {self.top_k} >= {self.population}"
@@ -447,11 +432,6 @@ class OneStepGA:
         self._branch = np.zeros(0, dtype=int)
         self._S = np.zeros(0)
         self._Q = np.zeros((0, robot.nq))
-        self._tangent: Array | None = None  # (P, m, nv) task Jacobians of the population (Newton map)
-        self._immigrant_rows = slice(0, 0)  # where this generation's immigrants sit in the population
-        self._immigrant_age = np.zeros(0, dtype=int)
-        self._nursery = np.zeros((0, self.g))  # immigrants still on their way to the manifold (Newton map)
-        self._nursery_age = np.zeros(0, dtype=int)
         self._peaks: tuple[Candidate, ...] = ()
         self._pending_genes = np.zeros((0, self.g))
         self._pending_branch = np.zeros(0, dtype=int)
@@ -515,14 +495,11 @@ class OneStepGA:
         diff = np.where(self._gene_periodic, wrap_angle(b - a), b - a)
         u = rng.uniform(-self.blend, 1.0 + self.blend, (count, self.g))
         cross = rng.random(count) < self.crossover_rate
-        move = np.where(cross[:, None], u * diff, 0.0)
+        child = np.where(cross[:, None], a + u * diff, a)
         from_b = cross & (rng.random(count) < 0.5)
         branch = np.where(from_b, self._branch[winners[1]], self._branch[winners[0]])
         sigma = self.mutation_scale * 2.0 ** -rng.uniform(0.0, 5.0, count)
-        move += sigma[:, None] * rng.standard_normal((count, self.g))
-        if self._tangent is not None:
-            move = (null_space_projector(self._tangent[winners[0]]) @ move[..., None])[..., 0]
-        child = a + move
+        child = child + sigma[:, None] * rng.standard_normal((count, self.g))
         if self.redundancy.branches > 1:
             flip = rng.random(count) < self.branch_flip
             other = (branch + rng.integers(1, self.redundancy.branches, count)) % self.redundancy.branches
@@ -553,26 +530,11 @@ class OneStepGA:
         parts_b.append(pending_b[:room])
         room -= min(room, pending_g.shape[0])
         n_imm = min(room, round(self.immigrants * P))
-        start = P - room
-        self._immigrant_rows = slice(start, start + n_imm)
-        waiting = min(n_imm, self._nursery.shape[0])
-        imm_g, imm_b = self._random(n_imm - waiting)
-        imm_g = np.concatenate([self._nursery[:waiting], imm_g])
-        imm_b = np.concatenate([np.zeros(waiting, dtype=int), imm_b])
-        self._immigrant_age = np.concatenate([self._nursery_age[:waiting], np.zeros(n_imm - waiting, dtype=int)])
+        imm_g, imm_b = self._random(n_imm)
         child_g, child_b = self._offspring(room - n_imm)
         genes = np.concatenate([*parts_g, imm_g, child_g])
         branch = np.concatenate([*parts_b, imm_b, child_b]).astype(int)
         return genes, branch
-
-    def _keep_maturing_immigrants(self, Q: Array, reachable: NDArray[np.bool_]) -> None:
-        """Immigrants not yet on the manifold continue from their partial projection next generation."""
-        rows = np.arange(Q.shape[0])[self._immigrant_rows]
-        off = ~reachable[rows]
-        age = self._immigrant_age[off] + 1
-        young = age < _NURSERY_GENERATIONS
-        self._nursery = self.redundancy.genes_of(Q[rows[off][young]])[0]
-        self._nursery_age = age[young]
 
     # -------------------------------------------------------------------------------- step
 
@@ -586,14 +548,7 @@ class OneStepGA:
         """
         genes, branch = self._next_population()
         self._pending_genes, self._pending_branch = np.zeros((0, self.g)), np.zeros(0, dtype=int)
-        if isinstance(self.redundancy, NewtonRedundancy):
-            Q, reachable, self._tangent = self.redundancy.solve_with_jacobians(
-                genes, branch, target, iterations=self.newton_steps
-            )
-            self._keep_maturing_immigrants(Q, reachable)
-            scored = score_configurations(self.evaluator, Q, reachable, t)
-        else:
-            scored = score(self.evaluator, self.redundancy, genes, branch, target, t)
+        scored = score(self.evaluator, self.redundancy, genes, branch, target, t)
         if self._lamarck and scored.reachable.any():
             solved, solved_branch = self.redundancy.genes_of(scored.Q[scored.reachable])
             genes = genes.copy()

@@ -13,7 +13,6 @@ import pinocchio as pin
 import pytest
 
 from previewctl.amsip import Evaluator
-from previewctl.avoidance import avoidance
 from previewctl.errors import ConfigurationError
 from previewctl.motion import Static
 from previewctl.redundancy import (
@@ -199,35 +198,6 @@ def test_newton_unreachable_target_is_flagged_and_scores_negative(panda: Robot) 
     scored = score(ev, red, genes, np.zeros(8, dtype=int), target)
     np.testing.assert_array_equal(scored.S, ev.potential.collision_value)
     assert scored.S.max() < 0
-
-
-def test_newton_stuck_rows_stop_after_patience(panda: Robot) -> None:
-    """A target 10 m away: the error cannot shrink by 10 % per step, so every row stops after
-    patience + 1 steps instead of running the whole budget."""
-    red = NewtonRedundancy(panda, iterations=20, patience=2)
-    passes = []
-    tip = red._tip
-    red._tip = lambda Q: passes.append(len(Q)) or tip(Q)  # type: ignore[method-assign]
-    genes = np.random.default_rng(8).uniform(red.gene_lower, red.gene_upper, (5, panda.nv))
-    _, ok = red.solve(genes, np.zeros(5, dtype=int), np.array([10.0, 0.0, 0.5]))
-    assert not ok.any()
-    assert len(passes) == 2 + 2  # the first reading, then patience + 1 steps
-    with pytest.raises(ConfigurationError, match="patience"):
-        NewtonRedundancy(panda, patience=-1)
-
-
-def test_newton_jacobians_at_the_solutions(panda: Robot) -> None:
-    """solve_with_jacobians returns the task Jacobian at each reachable solution, zero elsewhere."""
-    red = NewtonRedundancy(panda)
-    genes = np.random.default_rng(9).uniform(red.gene_lower, red.gene_upper, (12, panda.nv))
-    target = np.array([0.45, 0.1, 0.45])
-    Q, ok, J = red.solve_with_jacobians(genes, np.zeros(12, dtype=int), target)
-    Q2, ok2 = red.solve(genes, np.zeros(12, dtype=int), target)
-    np.testing.assert_array_equal(Q, Q2)
-    np.testing.assert_array_equal(ok, ok2)
-    assert ok.any() and not ok.all()
-    np.testing.assert_allclose(J[ok], avoidance(panda, Q[ok]).J_task, atol=1e-12)
-    np.testing.assert_array_equal(J[~ok], 0.0)
 
 
 def test_newton_q_seed_warm_start(panda: Robot) -> None:

@@ -215,44 +215,6 @@ def test_ga_on_panda_reaches_target() -> None:
     assert np.linalg.norm(ev(ga.best.q).tip_position[0] - target) < 1e-4
 
 
-def test_ga_offspring_on_panda_start_near_the_manifold() -> None:
-    """Tangent-space offspring: their hand error before any Newton step is second order in the move,
-    far below that of the same moves applied without the projection."""
-    robot = load_robot("panda", geometry="capsules")
-    red = redundancy_map(robot)
-    ga = OneStepGA(robot, Evaluator(robot), red, np.random.default_rng(1), population=32, immigrants=0.0)
-    target = np.array([0.5, 0.1, 0.4])
-    for _ in range(3):
-        ga.step(target, 0.0)
-    children, _ = ga._offspring(200)
-    projected = np.linalg.norm(Evaluator(robot)(children).tip_position - target, axis=1)
-    tangent, ga._tangent = ga._tangent, None  # the same operator without the projection
-    ga.rng = np.random.default_rng(2)
-    raw, _ = ga._offspring(200)
-    ga._tangent = tangent
-    unprojected = np.linalg.norm(Evaluator(robot)(raw).tip_position - target, axis=1)
-    assert np.median(projected) < 0.5 * np.median(unprojected)
-
-
-def test_ga_immigrants_of_the_newton_map_keep_their_progress() -> None:
-    """An immigrant still off the manifold after newton_steps continues from where it stopped at the
-    next generation, and is dropped after 3 generations."""
-    robot = load_robot("panda", geometry="capsules")
-    red = redundancy_map(robot)
-    ga = OneStepGA(robot, Evaluator(robot), red, np.random.default_rng(3), population=20,
-                   immigrants=0.5, newton_steps=1)
-    target = np.array([0.5, 0.1, 0.4])
-    ga.step(target, 0.0)
-    ga.step(target, 0.0)
-    waiting = ga._nursery.copy()
-    assert 0 < len(waiting) <= 10 and np.all(ga._nursery_age == 1)
-    genes, _ = ga._next_population()
-    np.testing.assert_array_equal(genes[ga._immigrant_rows][: len(waiting)], waiting)
-    for _ in range(4):
-        ga.step(target, 0.0)
-        assert np.all(ga._nursery_age < 3)
-
-
 # ------------------------------------------------------------------------------------ CLI, figures
 
 
