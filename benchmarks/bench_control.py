@@ -43,8 +43,10 @@ def main() -> None:
     duration = 2.0 if args.quick else 10.0
     print(f"{'scene (multi, p = 3, population 64)':<34}{'cycles':<14}{'median':>9}{'worst':>9}{'of 33ms':>10}")
     report("planar4, paper_planar", multi(canonical_scenario(), duration))
-    report("panda (convex), panda_crossing", multi(load_scenario(shipped_scenarios_dir() / "panda_crossing.toml"),
-                                                   duration))
+    panda = load_scenario(shipped_scenarios_dir() / "panda_crossing.toml")
+    report("panda (convex), panda_crossing", multi(panda, duration))
+    capsules = dataclasses.replace(panda, robot=panda.robot_spec.load("capsules"))
+    report("panda (capsules), panda_crossing", multi(capsules, duration))
 
 
 if __name__ == "__main__":

@@ -127,6 +127,8 @@ class FrameKinematics:
                 joint = model.joints[j]
                 if j > 0:
                     self._support[k, :, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        self._regroup = not np.array_equal(self._slot, np.arange(len(parents)))  # shared or reordered parents
+        self._partial_support = not self._support.all()  # some joint columns do not move some frame
         self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
         placements = list(self.data.oMi)  # element references, read without a lookup each
         self._placements = [placements[j] for j in joints]
@@ -149,7 +151,9 @@ class FrameKinematics:
                 homogeneous.append(placement.homogeneous)
             if after_each is not None:
                 after_each(data)
-        frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)[:, self._slot]
+        frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)
+        if self._regroup:
+            frames = frames[:, self._slot]
         if self._moved.size:
             frames[:, self._moved] = frames[:, self._moved] @ self._offset
         # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
@@ -161,7 +165,8 @@ class FrameKinematics:
         jacobians[:, :, :3] = (cross.reshape(B, 3 * K, 3) @ J[:, 3:]).reshape(B, K, 3, model.nv)
         jacobians[:, :, :3] += J[:, None, :3]
         jacobians[:, :, 3:] = J[:, None, 3:]
-        jacobians *= self._support
+        if self._partial_support:
+            jacobians *= self._support
         return frames, jacobians
 
 

@@ -450,6 +450,8 @@ class NewtonRedundancy:
         )
         self._q_lower = robot.lower_limits[self._clip]
         self._q_upper = robot.upper_limits[self._clip]
+        self._lower_margin, self._upper_margin = self._q_lower + 1e-9, self._q_upper - 1e-9
+        self._eye = np.eye(self.m)
 
     # ------------------------------------------------------------------ genes <-> configurations
 
@@ -480,33 +482,32 @@ class NewtonRedundancy:
         return np.concatenate([linear, angular], axis=1)
 
     def _converged(self, err: Array) -> NDArray[np.bool_]:
-        pos = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1) < self.tolerance
+        pos = _row_norm(err[:, :3] if self.m >= 3 else err) < self.tolerance
         if self.m == 6:
-            pos &= np.linalg.norm(err[:, 3:], axis=1) < self.angle_tolerance
+            pos &= _row_norm(err[:, 3:]) < self.angle_tolerance
         return pos
 
     def _clip_limits(self, Q: Array) -> Array:
         """Clip the bounded joints of configurations ``(A, nq)`` to their limits (in place)."""
         if self._clip.size:
-            Q[:, self._clip] = np.clip(Q[:, self._clip], self._q_lower, self._q_upper)
+            Q[:, self._clip] = np.minimum(np.maximum(Q[:, self._clip], self._q_lower), self._q_upper)
         return Q
 
     def _step(self, J: Array, err: Array, Q: Array) -> Array:
         """Damped least-squares steps ``(A, nv)``; joints at a limit that the step pushes further are frozen."""
         JT = np.ascontiguousarray(np.swapaxes(J, 1, 2))
-        norm = np.linalg.norm(err[:, :3] if self.m >= 3 else err, axis=1)
-        eye = (self.damping**2 * np.clip(norm / self.max_step, 1e-3, 1.0))[:, None, None] * np.eye(self.m)
+        ratio = np.minimum(np.maximum(_row_norm(err[:, :3] if self.m >= 3 else err) / self.max_step, 1e-3), 1.0)
+        eye = (self.damping**2 * ratio)[:, None, None] * self._eye
         step = (JT @ np.linalg.solve(J @ JT + eye, err[..., None]))[..., 0]
         if not self._clip.size:
             return step
-        q = Q[:, self._clip]
-        v = self._clip_v
-        blocked = np.zeros(step.shape, dtype=bool)
-        at_lower = (q <= self._q_lower + 1e-9) & (step[:, v] < 0)
-        blocked[:, v] = at_lower | ((q >= self._q_upper - 1e-9) & (step[:, v] > 0))
-        rows = blocked.any(axis=1)
+        q, pushed = Q[:, self._clip], step[:, self._clip_v]
+        blocked_v = ((q <= self._lower_margin) & (pushed < 0)) | ((q >= self._upper_margin) & (pushed > 0))
+        rows = blocked_v.any(axis=1)
         if rows.any():
-            Jf = J[rows] * (~blocked[rows])[:, None, :]
+            free = np.ones((int(rows.sum()), J.shape[2]))
+            free[:, self._clip_v] = ~blocked_v[rows]
+            Jf = J[rows] * free[:, None, :]
             JfT = np.ascontiguousarray(np.swapaxes(Jf, 1, 2))
             step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + eye[rows], err[rows][..., None]))[..., 0]
         return step
@@ -556,7 +557,7 @@ class NewtonRedundancy:
             active, J, err = active[keep], J[keep], err[keep]
             if active.size == 0 or iteration == self.iterations:
                 break
-            norm = np.linalg.norm(err[:, :3] if m >= 3 else err, axis=1, keepdims=True)
+            norm = _row_norm(err[:, :3] if m >= 3 else err)[:, None]
             err = err * np.minimum(1.0, self.max_step / np.maximum(norm, 1e-300))
             step = self._step(J, err, Q[active])
             if self._vector_space:
@@ -565,6 +566,12 @@ class NewtonRedundancy:
                 moved = np.stack([pin.integrate(model, Q[b], step[i]) for i, b in enumerate(active)])
                 Q[active] = self._clip_limits(moved)
         return Q, reachable
+
+
+def _row_norm(x: Array) -> Array:
+    """Euclidean norm of each row of ``(A, k)`` (what ``np.linalg.norm(x, axis=1)`` computes, with
+    less overhead: this runs several times per Newton step on small batches)."""
+    return np.asarray(np.sqrt(np.add.reduce(x * x, axis=1)))
 
 
 def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRedundancy:
