@@ -173,7 +173,6 @@ class FrameKinematics:
 def kinematics(
     robot: Robot,
     Q: Array,
-    data: pin.Data | None = None,
     after_each: Callable[[pin.Data], None] | None = None,
     reader: FrameKinematics | None = None,
 ) -> Kinematics:
@@ -182,11 +181,11 @@ def kinematics(
     Args:
         robot: the arm.
         Q: ``(B, nq)`` validated configurations.
-        data: a Pinocchio ``Data`` to reuse (one is created if ``None``; ignored with ``reader``).
         after_each: see :meth:`FrameKinematics.__call__`.
-        reader: a :class:`FrameKinematics` of :func:`kinematics_reader` to reuse.
+        reader: the :func:`kinematics_reader` of ``robot`` to reuse (building one costs far more than a
+            configuration; keep it across calls).
     """
-    reader = kinematics_reader(robot, data) if reader is None else reader
+    reader = kinematics_reader(robot) if reader is None else reader
     frames, jacobians = reader(Q, after_each)
     tip = frames[:, -1]
     return Kinematics(

@@ -33,7 +33,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.amsip import Evaluator
-from previewctl.avoidance import kinematics
+from previewctl.avoidance import kinematics, kinematics_reader
 from previewctl.control import (
     ControlInfo,
     Controller,
@@ -230,7 +230,7 @@ def simulate(
         "targets": None,  # (steps + 1, p, nq) once the controller reports its imaginary arms
         "target_S": None,
     }
-    data = model.createData()
+    reader = kinematics_reader(robot)  # built once: the loop only reads through it
     q = np.array(scenario.q0, dtype=float)
     last_frame = -1
     rows = 2 if robot.task == "planar" else 3
@@ -255,7 +255,7 @@ def simulate(
                 progress(1.0, t)
             break
         start = time.perf_counter()
-        kin = kinematics(robot, q[None, :], data)
+        kin = kinematics(robot, q[None, :], reader=reader)
         state = ControlState(kin, scenario.path, scenario.scene, timing.dt, frame_due)
         qdot, info = controller.command(t, q, state)
         log["cycle_time"][k] = time.perf_counter() - start
