@@ -17,8 +17,8 @@ example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
 * geometry: ``"convex"`` replaces meshes by their convex hulls and cylinders by capsules (a
   conservative cover, 20-40x cheaper distances); ``"capsules"`` replaces every mesh and cylinder by
   its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
-  distances are lower bounds, and about twice as cheap again); ``"mesh"`` keeps the URDF geometry
-  exactly.
+  distances are lower bounds, computed about 2.5x faster than against hulls); ``"mesh"`` keeps the
+  URDF geometry exactly.
 """
 
 from __future__ import annotations
