@@ -534,6 +534,18 @@ class SearchLike(Protocol):
         ...
 
 
+def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequence[float]) -> list[Any]:
+    """One generation of ``searches[i]`` toward the hand target ``path.position(times[i])`` at
+    ``times[i]`` [s]; their best candidates. 1-step GAs run through
+    :func:`previewctl.search.step_together` (same result, one shared Newton projection)."""
+    targets = [np.asarray(path.position(t_i), dtype=float) for t_i in times]
+    from previewctl.search import OneStepGA, step_together  # lazy, as the default search factory
+
+    if all(isinstance(search, OneStepGA) for search in searches):
+        return step_together([s for s in searches if isinstance(s, OneStepGA)], targets, times)
+    return [search.step(target, t_i) for search, target, t_i in zip(searches, targets, times, strict=True)]
+
+
 def wrapped_difference(robot: Robot, q: Array, target: Array) -> Array:
     """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more."""
     diff: Array = np.array(pin.difference(robot.model, q, target), dtype=np.float64)
@@ -592,9 +604,8 @@ class PreviewController:
             for search in self.searches:
                 search.seed(np.array(q, dtype=float))
         targets, values = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
-        for i, (search, offset) in enumerate(zip(self.searches, self.preview_times, strict=True)):
-            t_i = t + float(offset)
-            best = search.step(np.asarray(path.position(t_i), dtype=float), t_i)
+        times = [t + float(offset) for offset in self.preview_times]
+        for i, best in enumerate(step_searches(self.searches, path, times)):
             targets[i], values[i] = np.asarray(best.q, dtype=float), float(best.S)
         self._targets, self._target_amsip = targets, values
         return targets, values
@@ -761,9 +772,8 @@ class ReachController:
                 search.seed(np.array(q, dtype=float))
         levels: list[tuple[Array, Array]] = []
         best_q, best_S = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
-        for i, search in enumerate(self.searches):
-            t_i = t + (i + 1) * self.params.preview_time
-            best = search.step(np.asarray(path.position(t_i), dtype=float), t_i)
+        times = [t + (i + 1) * self.params.preview_time for i in range(len(self.searches))]
+        for i, (search, best) in enumerate(zip(self.searches, step_searches(self.searches, path, times), strict=True)):
             best_q[i], best_S[i] = np.asarray(best.q, dtype=float), float(best.S)
             peaks = [c for c in search.peaks() if c.S > 0]
             levels.append((np.array([c.q for c in peaks]).reshape(-1, self.robot.nq), np.array([c.S for c in peaks])))

@@ -16,6 +16,7 @@ compared modulo 2 pi.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,8 +25,10 @@ from numpy.typing import NDArray
 from previewctl.amsip import Evaluator
 from previewctl.errors import ConfigurationError, UnreachableTargetError
 from previewctl.redundancy import (
+    NewtonRedundancy,
     PlanarRedundancy,
     RedundancyMap,
+    Scored,
     joint_angles,
     parse_target,
     redundancy_map,
@@ -37,7 +40,9 @@ from previewctl.robot import Robot
 
 Array = NDArray[np.float64]
 
-__all__ = ["Candidate", "Landscape", "OneStepGA", "explore", "gene_periodic", "halton", "joint_periodic"]
+__all__ = [
+    "Candidate", "Landscape", "OneStepGA", "explore", "gene_periodic", "halton", "joint_periodic", "step_together",
+]
 
 _PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97)
 
@@ -546,9 +551,17 @@ class OneStepGA:
             it is the previous best re-evaluated, unless a better individual was found. Its ``S`` is
             negative if nothing in the population reaches the target without collision.
         """
+        genes, branch = self._breed()
+        return self._adopt(genes, branch, score(self.evaluator, self.redundancy, genes, branch, target, t))
+
+    def _breed(self) -> tuple[Array, NDArray[np.int_]]:
+        """The next generation's genes and branches (the pending seeds are used up)."""
         genes, branch = self._next_population()
         self._pending_genes, self._pending_branch = np.zeros((0, self.g)), np.zeros(0, dtype=int)
-        scored = score(self.evaluator, self.redundancy, genes, branch, target, t)
+        return genes, branch
+
+    def _adopt(self, genes: Array, branch: NDArray[np.int_], scored: Scored) -> Candidate:
+        """Make the scored generation current: Lamarckian repair, peaks; returns the best."""
         if self._lamarck and scored.reachable.any():
             solved, solved_branch = self.redundancy.genes_of(scored.Q[scored.reachable])
             genes = genes.copy()
@@ -563,3 +576,49 @@ class OneStepGA:
             _candidate(genes, branch, self._Q, self._S, int(order[k]), self._gene_periodic) for k in kept
         )
         return self.best
+
+
+def step_together(searches: Sequence[OneStepGA], targets: Sequence[object], times: Sequence[float]) -> list[Candidate]:
+    """One generation of each GA: ``searches[i]`` at hand target ``targets[i]`` and time ``times[i]`` [s].
+
+    The same result as ``[ga.step(target, t) for ...]``. GAs that share one :class:`NewtonRedundancy`
+    project their new populations in a single :meth:`NewtonRedundancy.solve_many` call: the Newton
+    iteration's per-step overhead, most of a generation's cost on a spatial arm, is then paid once
+    per frame instead of once per imaginary arm.
+    """
+    if not (len(searches) == len(targets) == len(times)):
+        raise ConfigurationError(
+            f"step_together needs one target and one time per search: {len(searches)} searches, "
+            f"{len(targets)} targets, {len(times)} times"
+        )
+    bred = [ga._breed() for ga in searches]
+    solved: dict[int, tuple[Array, NDArray[np.bool_]]] = {}
+    for redundancy, members in _shared_newton_maps(searches):
+        genes = np.concatenate([bred[i][0] for i in members])
+        branch = np.concatenate([bred[i][1] for i in members])
+        groups = np.repeat(np.arange(len(members)), [len(bred[i][0]) for i in members])
+        Q, reachable = redundancy.solve_many(genes, branch, [targets[i] for i in members], groups)
+        for k, i in enumerate(members):
+            solved[i] = Q[groups == k], reachable[groups == k]
+    best = []
+    for i, (ga, (genes, branch)) in enumerate(zip(searches, bred, strict=True)):
+        if i in solved:
+            scored = score_configurations(ga.evaluator, *solved[i], times[i])
+        else:
+            scored = score(ga.evaluator, ga.redundancy, genes, branch, targets[i], times[i])
+        best.append(ga._adopt(genes, branch, scored))
+    return best
+
+
+def _shared_newton_maps(searches: Sequence[OneStepGA]) -> list[tuple[NewtonRedundancy, list[int]]]:
+    """The Newton maps of ``searches``, each with the indices of the searches using it (searches with
+    another kind of map are left out)."""
+    groups: list[tuple[NewtonRedundancy, list[int]]] = []
+    for i, ga in enumerate(searches):
+        if isinstance(ga.redundancy, NewtonRedundancy):
+            shared = next((members for red, members in groups if red is ga.redundancy), None)
+            if shared is None:
+                groups.append((ga.redundancy, [i]))
+            else:
+                shared.append(i)
+    return groups

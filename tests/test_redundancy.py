@@ -200,6 +200,23 @@ def test_newton_unreachable_target_is_flagged_and_scores_negative(panda: Robot) 
     assert scored.S.max() < 0
 
 
+def test_newton_solve_many_equals_solve_per_target(panda: Robot) -> None:
+    """Rows aimed at different targets in one call give exactly what one call per target gives."""
+    red = NewtonRedundancy(panda)
+    genes = np.random.default_rng(8).uniform(red.gene_lower, red.gene_upper, (12, panda.nv))
+    targets = [np.array([0.45, 0.1, 0.45]), np.array([0.3, -0.3, 0.6])]
+    groups = np.array([0, 1] * 6)
+    Q, ok = red.solve_many(genes, np.zeros(12, dtype=int), targets, groups)
+    for k, target in enumerate(targets):
+        Qk, okk = red.solve(genes[groups == k], np.zeros(6, dtype=int), target)
+        np.testing.assert_array_equal(Q[groups == k], Qk)
+        np.testing.assert_array_equal(ok[groups == k], okk)
+    assert ok.any()
+    for bad in (np.array([0, 2] * 6), np.zeros(5, dtype=int), np.full(12, 0.5)):
+        with pytest.raises(ConfigurationError, match="groups"):
+            red.solve_many(genes, np.zeros(12, dtype=int), targets, bad)
+
+
 def test_newton_q_seed_warm_start(panda: Robot) -> None:
     red = NewtonRedundancy(panda, iterations=3)
     rng = np.random.default_rng(6)

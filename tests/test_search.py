@@ -15,7 +15,7 @@ from previewctl.motion import Static
 from previewctl.redundancy import PlanarRedundancy, joint_angles, redundancy_map, wrap_angle
 from previewctl.robot import Robot, load_robot
 from previewctl.scene import Box, Obstacle, Scene, Sphere
-from previewctl.search import Landscape, OneStepGA, explore, halton, joint_periodic
+from previewctl.search import Landscape, OneStepGA, explore, halton, joint_periodic, step_together
 
 # The paper's hand positions A-F (section 7: A = (10 cm, 140 cm), five 75 cm segments).
 PATH = np.array([[0.10, 1.40], [0.85, 1.40], [0.85, 0.65], [1.60, 0.65], [1.60, -0.10], [2.35, -0.10]])
@@ -213,6 +213,32 @@ def test_ga_on_panda_reaches_target() -> None:
     scores = [ga.step(target, 0.0).S for _ in range(6)]
     assert scores[-1] > 0 and scores[-1] >= scores[0]
     assert np.linalg.norm(ev(ga.best.q).tip_position[0] - target) < 1e-4
+
+
+@pytest.mark.parametrize("name", ["panda", "planar4"])
+def test_step_together_equals_stepping_each(name: str) -> None:
+    """One shared Newton projection (or, for the planar map, none to share) changes nothing: the same
+    populations and best candidates as stepping each GA on its own."""
+    robot = load_robot(name)
+    ev = Evaluator(robot, Scene((Obstacle("ball", Sphere(0.08), Static(np.array([0.35, 0.0, 0.35]))),)))
+    red = redundancy_map(robot)
+    targets = [np.array([0.5, 0.1, 0.4]), np.array([0.45, 0.15, 0.45])] if name == "panda" else \
+        [np.array([0.85, 0.65]), np.array([0.9, 0.6])]
+
+    def gas() -> list[OneStepGA]:
+        return [OneStepGA(robot, ev, red, np.random.default_rng(k), population=16) for k in range(2)]
+
+    together, alone = gas(), gas()
+    for generation in range(3):
+        times = [0.1 * generation, 0.1 * generation + 1.0]
+        best_together = step_together(together, targets, times)
+        best_alone = [ga.step(target, t) for ga, target, t in zip(alone, targets, times, strict=True)]
+        for a, b, ga, gb in zip(best_together, best_alone, together, alone, strict=True):
+            assert a.S == b.S
+            np.testing.assert_array_equal(a.q, b.q)
+            np.testing.assert_array_equal(ga.population_genes, gb.population_genes)
+    with pytest.raises(ConfigurationError, match="one target and one time per search"):
+        step_together(together, targets[:1], [0.0, 1.0])
 
 
 # ------------------------------------------------------------------------------------ CLI, figures
