@@ -13,6 +13,11 @@ and differs only in the null-space input ``v``:
 * ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
 * ``reach``: a route of peaks through the future (not built yet).
 
+``with_gradient`` (off by default; not in the paper) adds the local ascent ``K_g ∇_q S`` of
+``gradient`` to the null-space input of ``single`` and ``multi``. The preview pull heads for the
+imaginary arms' optima, which on a spatial arm may lie radians away. The local term keeps the
+current configuration clear of an obstacle meanwhile.
+
 The preview modes get their imaginary arms ``q̃`` from a 1-step GA (:mod:`previewctl.search`), one per
 preview time, which runs one generation per camera frame.
 
@@ -155,6 +160,7 @@ class ControllerParams:
         top_k: distinct peaks the GA keeps.
         fd_step: finite-difference step of ``∇S`` [rad].
         ga_options: further keyword arguments for the GA, as ``(name, value)`` pairs.
+        with_gradient: ``single``/``multi`` also add ``K_g ∇S`` (``gradient_gain``) to ``v``.
     """
 
     gain: tuple[float, ...] = (1.0,)
@@ -171,6 +177,7 @@ class ControllerParams:
     top_k: int = 4
     fd_step: float = 1e-4
     ga_options: tuple[tuple[str, Any], ...] = field(default=())
+    with_gradient: bool = False
 
     def __post_init__(self) -> None:
         """Validate every field.
@@ -192,6 +199,8 @@ class ControllerParams:
         _count(self.elite, "elite", 0)
         _count(self.top_k, "top_k", 1)
         _positive(self.fd_step, "fd_step")
+        if not isinstance(self.with_gradient, bool):
+            raise ConfigurationError(f"with_gradient must be true or false, got {self.with_gradient!r}")
         if self.elite >= self.population:
             raise ConfigurationError(f"elite ({self.elite}) must be smaller than population ({self.population})")
 
@@ -503,10 +512,13 @@ class GradientController:
         S = self.evaluator(batch, t).S
         return np.asarray((S[:nv] - S[nv:]) / (2.0 * h))
 
+    def null_space_input(self, q: Array, t: float) -> Array:
+        """``v = K_g ∇_q S`` ``(nv,)`` [rad/s]."""
+        return np.asarray(self._gain * self.gradient(q, t))
+
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
-        v = self._gain * self.gradient(q, t)
-        return track(self.robot, t, q, state, v, self.params)
+        return track(self.robot, t, q, state, self.null_space_input(q, t), self.params)
 
 
 @runtime_checkable
@@ -574,12 +586,20 @@ class PreviewController:
         mode: ``"single"`` or ``"multi"`` (``"reach"`` is :class:`ReachController`).
         searches: one search per preview time (``p = 1`` for single, ``len(weights)`` for multi),
             each with ``step(target, t)``, ``peaks()`` and ``seed(q)``.
+        evaluator: the AMSIP evaluator of the local term (needed with ``params.with_gradient``).
 
     Raises:
-        ConfigurationError: wrong number of searches, unknown mode.
+        ConfigurationError: wrong number of searches, unknown mode, ``with_gradient`` without evaluator.
     """
 
-    def __init__(self, robot: Robot, params: ControllerParams, mode: str, searches: Sequence[SearchLike]) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        params: ControllerParams,
+        mode: str,
+        searches: Sequence[SearchLike],
+        evaluator: Evaluator | None = None,
+    ) -> None:
         if mode not in ("single", "multi"):
             raise ConfigurationError(f"unknown preview mode {mode!r}; valid: single, multi, reach")
         self.name = mode
@@ -591,6 +611,11 @@ class PreviewController:
             )
         self.searches = tuple(searches)
         self._gain = _gain_vector(params.gain, robot.nv, "gain")
+        self._local: GradientController | None = None
+        if params.with_gradient:
+            if evaluator is None:
+                raise ConfigurationError("with_gradient needs the AMSIP evaluator: pass evaluator=")
+            self._local = GradientController(robot, evaluator, params)
         self._targets: Array | None = None
         self._target_amsip: Array | None = None
 
@@ -620,6 +645,8 @@ class PreviewController:
         for k, target in zip(self.weights, targets, strict=True):
             direction += k * wrapped_difference(self.robot, q, target)
         v = self._gain * direction
+        if self._local is not None:
+            v = v + self._local.null_space_input(q, t)
         return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())
 
 
@@ -837,7 +864,7 @@ def make_controller(
         from previewctl.redundancy import redundancy_map
 
         return ReachController(robot, params, evaluator, searches, redundancy_map(robot))
-    return PreviewController(robot, params, spec.name, searches)
+    return PreviewController(robot, params, spec.name, searches, evaluator)
 
 
 def _ga_factory(robot: Robot, evaluator: Evaluator, params: ControllerParams, mode: str) -> SearchFactory:

@@ -87,7 +87,7 @@ _ROBOT_KEYS = ("source", "tip", "lock", "task", "guarded_links", "control_points
 _PATH_KEYS = ("waypoints", "duration", "start_time", "orientation_rpy")
 _CONTROLLER_KEYS = ("name", "gain", "gradient_gain", "feedback_gain", "damping", "singular_threshold",
                     "velocity_scale", "preview_time", "weights", "previews", "population", "elite", "top_k",
-                    "fd_step", "ga")
+                    "fd_step", "ga", "with_gradient")
 _TIMING_KEYS = ("dt", "frame", "duration")
 _INDEX_KEYS = ("length_unit", "weights")
 _POTENTIAL_KEYS = ("influence_distance", "gain", "collision_value")
@@ -501,6 +501,8 @@ def _controller(rd: _Reader, table: Mapping[str, Any], robot: Robot) -> Controll
             raise rd.error(str(exc)) from exc
     if "ga" in table:
         kwargs["ga_options"] = tuple(rd.table(table["ga"], "controller.ga").items())
+    if "with_gradient" in table:
+        kwargs["with_gradient"] = rd.boolean(table["with_gradient"], "controller.with_gradient")
     try:
         params = ControllerParams(**kwargs)
     except PreviewctlError as exc:

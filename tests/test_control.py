@@ -27,10 +27,11 @@ from previewctl.control import (
     wrapped_difference,
 )
 from previewctl.errors import ConfigurationError, PreviewctlError
+from previewctl.motion import Static
 from previewctl.redundancy import redundancy_map
 from previewctl.robot import Robot, load_robot
 from previewctl.scenario import Scenario, scenario_from_dict
-from previewctl.scene import Scene, scene_from_dict
+from previewctl.scene import Obstacle, Scene, Sphere, scene_from_dict
 from previewctl.simulate import simulate
 from previewctl.trajectory import HandPath
 
@@ -281,6 +282,27 @@ def planar_ik(robot: Robot, q12: tuple[float, float], tip: Array, elbow: int = 1
     q4 = elbow * np.arccos(np.clip(c4, -1, 1))
     phi = np.arctan2(d[1], d[0]) - np.arctan2(link * np.sin(q4), link + link * np.cos(q4))
     return np.array([q1, q2, phi - q1 - q2, q4])
+
+
+def test_preview_with_gradient_adds_the_local_term(planar: Robot) -> None:
+    """with_gradient: v = K_v (sum k_i q~_i - q) + K_g grad S. With the imaginary arms at q the pull
+    vanishes and v is exactly the gradient controller's input; it needs the evaluator."""
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    scene = Scene((Obstacle("ball", Sphere(0.2), Static(np.array([0.3, 1.2, 0.0]))),))  # 7 cm from the arm
+    evaluator = Evaluator(planar, scene)
+    params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True)
+    q = np.array(PLANAR_Q0)
+    controller = PreviewController(planar, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
+    _, info = controller.command(1.0, q, state_for(planar, q, path, scene))
+    local = GradientController(planar, evaluator, params).null_space_input(q, 1.0)
+    assert np.linalg.norm(local) > 0
+    np.testing.assert_allclose(info.v, local, rtol=1e-12, atol=1e-15)
+    plain = PreviewController(planar, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
+    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar, q, path, scene))[1].v, 0.0, atol=1e-15)
+    with pytest.raises(ConfigurationError, match="with_gradient needs the AMSIP evaluator"):
+        PreviewController(planar, params, "multi", [FakeGA(q), FakeGA(q)])
+    with pytest.raises(ConfigurationError, match="with_gradient must be true or false"):
+        ControllerParams(with_gradient=1)  # type: ignore[arg-type]
 
 
 def test_preview_controller_computes_eq21_with_fake_searches(planar: Robot) -> None:

@@ -144,6 +144,7 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
         ({"controller": {"preview_time": -1}}, r"controller\.preview_time must be > 0, got -1"),
         ({"controller": {"population": 2.5}}, r"controller\.population must be an integer, got 2\.5"),
         ({"output": {"gif": "yes"}}, r"output\.gif must be true or false"),
+        ({"controller": {"name": "multi", "with_gradient": 1}}, r"controller\.with_gradient must be true or false"),
         ({"output": {"figures": ["strobe", "movie"]}}, r"unknown figure 'movie'; valid: strobe, S"),
         ({"index": {"weights": [1.0, 1.0]}}, r"index\.weights has 2 entries; robot 'planar4' has 3 control points"),
         ({"potential": {"gain": 2.0}}, r"potential\.gain must lie in \(0, 1\]"),
