@@ -56,11 +56,11 @@ class Potential:
         if not self.collision_value < 0:
             raise ConfigurationError(f"collision_value must be negative, got {self.collision_value!r}")
 
-    def apply(self, amsi: Array, link_distances: Array) -> tuple[Array, Array, Array]:
+    def apply(self, amsi: Array, link_distances: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
         """``(S, U, collision)`` from ``amsi`` ``(B,)`` and ``link_distances`` ``(B, L)`` [m]."""
         ramp = np.clip((self.influence_distance - link_distances) / self.influence_distance, 0.0, 1.0)
         factor = np.prod(1.0 - self.gain * ramp**2, axis=1)
-        collision = (link_distances <= 0.0).any(axis=1)
+        collision = np.asarray((link_distances <= 0.0).any(axis=1), dtype=bool)
         S = np.where(collision, self.collision_value, amsi * factor)
         return S, S - amsi, collision
 

@@ -356,7 +356,7 @@ def avoidance_from_kinematics(
     """Batched eqs. 3-17 from precomputed kinematics."""
     N = null_space_projector(kin.J_task, params.rank_tolerance)
     M = kin.J_points @ N[:, None]
-    sv = np.linalg.svd(M, compute_uv=False) if M.size else np.zeros((*M.shape[:2], 0))
+    sv = np.asarray(np.linalg.svd(M, compute_uv=False) if M.size else np.zeros((*M.shape[:2], 0)), dtype=np.float64)
     scale = np.linalg.svd(kin.J_task, compute_uv=False)[:, :1] if kin.J_task.size else np.ones((len(M), 1))
     tol = params.rank_tolerance * np.maximum(scale, np.finfo(float).tiny)
     ranks = (sv > tol[:, :, None]).sum(axis=-1)

@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def cmd_index(args: argparse.Namespace) -> int:
     potential = Potential(influence_distance=args.influence)
     result = avoidance(robot, q, index)
     ev = Evaluator(robot, scene, index, potential)(q, args.time)
-    report = {
+    report: dict[str, Any] = {
         "robot": robot.name,
         "q": [float(v) for v in q],
         "tip_position": [float(v) for v in ev.tip_position[0]],
@@ -245,7 +246,6 @@ def cmd_paper(args: argparse.Namespace) -> int:
 def cmd_map(args: argparse.Namespace) -> int:
     """Global AMSIP map over the redundancy space of one hand target: best, peaks, optional PNG."""
     from pathlib import Path
-    from typing import Any
 
     from previewctl.amsip import Evaluator, Potential
     from previewctl.avoidance import IndexParams

@@ -17,7 +17,7 @@ import os
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from previewctl.control import ControllerSpec
 from previewctl.errors import PreviewctlError
@@ -90,5 +90,8 @@ def run_paper(
         summaries[name] = result.summary()
     text = (json.dumps(summaries, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write(out / "summary.json", lambda handle: handle.write(text))
+    def write(handle: IO[bytes]) -> None:
+        handle.write(text)
+
+    atomic_write(out / "summary.json", write)
     return summaries

@@ -199,12 +199,12 @@ def _reach_check(redundancy: RedundancyMap, target: object, robot: Robot) -> Non
 
 
 def _grid_axes(redundancy: RedundancyMap, resolution: float) -> tuple[Array, ...]:
-    axes = []
+    axes: list[Array] = []
     periodic = gene_periodic(redundancy)
     for lo, hi, per in zip(redundancy.gene_lower, redundancy.gene_upper, periodic, strict=True):
         if per:
             count = max(1, round(2 * np.pi / resolution))
-            axes.append(np.arange(count) * (2 * np.pi / count))
+            axes.append(np.arange(count, dtype=np.float64) * (2 * np.pi / count))
         else:
             count = max(1, int(np.floor((hi - lo) / resolution + 1e-9)) + 1)
             axes.append(lo + np.arange(count) * resolution)
