@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import SceneError
-from previewctl.validation import check_finite, real_array, real_scalar
+from previewctl.validation import check_finite, real_array, real_scalar, rotation_matrix
 from previewctl.validation import show as _show
 
 __all__ = [
@@ -32,10 +32,6 @@ __all__ = [
     "motion_from_dict",
     "rpy_to_matrix",
 ]
-
-_ROTATION_TOL = 1e-6
-"""Tolerance on ``R^T R = I`` and ``det R = 1`` for an obstacle rotation."""
-
 
 @runtime_checkable
 class Motion(Protocol):
@@ -93,18 +89,7 @@ def _points(value: object, name: str, *, single: bool) -> NDArray[np.float64]:
 
 def _rotation(value: object, name: str = "rotation") -> NDArray[np.float64]:
     """Validate a rotation matrix (shape (3, 3), orthonormal, det +1) and return a copy."""
-    matrix = _real_array(value, name)
-    if matrix.shape != (3, 3):
-        raise SceneError(f"{name} must have shape (3, 3), got shape {matrix.shape}: {_show(matrix)}")
-    _check_finite(matrix, name)
-    gram_error = float(np.abs(matrix.T @ matrix - np.eye(3)).max())
-    det = float(np.linalg.det(matrix))
-    if gram_error > _ROTATION_TOL or abs(det - 1.0) > _ROTATION_TOL:
-        raise SceneError(
-            f"{name} must be a rotation matrix (orthonormal to {_ROTATION_TOL}, det +1), got "
-            f"{_show(matrix)} with max|R^T R - I| = {gram_error:.3g} and det = {det:.6g}"
-        )
-    return matrix
+    return rotation_matrix(value, name, SceneError)
 
 
 def _time(t: object) -> float:

@@ -14,14 +14,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import TrajectoryError
-from previewctl.validation import check_finite, real_array, real_scalar
+from previewctl.validation import check_finite, real_array, real_scalar, rotation_matrix
 from previewctl.validation import show as _show
 
 __all__ = ["HandPath"]
-
-_ROTATION_TOL = 1e-6
-"""Tolerance on ``R^T R = I`` and ``det R = 1`` for a hand orientation."""
-
 
 def _real_array(value: object, name: str) -> NDArray[np.float64]:
     return real_array(value, name, TrajectoryError)
@@ -99,20 +95,7 @@ class HandPath:
 
         orientation = self.orientation
         if orientation is not None:
-            orientation = _real_array(orientation, "orientation")
-            if orientation.shape != (3, 3):
-                raise TrajectoryError(
-                    f"orientation must have shape (3, 3), got shape {orientation.shape}: {_show(orientation)}"
-                )
-            _check_finite(orientation, "orientation")
-            gram_error = float(np.abs(orientation.T @ orientation - np.eye(3)).max())
-            det = float(np.linalg.det(orientation))
-            if gram_error > _ROTATION_TOL or abs(det - 1.0) > _ROTATION_TOL:
-                raise TrajectoryError(
-                    f"orientation must be a rotation matrix (orthonormal to {_ROTATION_TOL}, "
-                    f"det +1), got {_show(orientation)} with max|R^T R - I| = {gram_error:.3g} "
-                    f"and det = {det:.6g}"
-                )
+            orientation = rotation_matrix(orientation, "orientation", TrajectoryError)
             orientation.flags.writeable = False
 
         cumulative = np.concatenate(([0.0], np.cumsum(seg_lengths)))

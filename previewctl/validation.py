@@ -41,6 +41,27 @@ def real_scalar(value: object, name: str, error: type[PreviewctlError]) -> float
     return number
 
 
+ROTATION_TOLERANCE = 1e-6
+"""Tolerance on ``R^T R = I`` and ``det R = 1`` for a user-given rotation matrix."""
+
+
+def rotation_matrix(value: object, name: str, error: type[PreviewctlError]) -> NDArray[np.float64]:
+    """``value`` as a fresh ``(3, 3)`` rotation matrix (orthonormal, det +1, to ``ROTATION_TOLERANCE``);
+    ``error`` naming ``name`` and what is wrong otherwise."""
+    matrix = real_array(value, name, error)
+    if matrix.shape != (3, 3):
+        raise error(f"{name} must have shape (3, 3), got shape {matrix.shape}: {show(matrix)}")
+    check_finite(matrix, name, error)
+    gram_error = float(np.abs(matrix.T @ matrix - np.eye(3)).max())
+    det = float(np.linalg.det(matrix))
+    if gram_error > ROTATION_TOLERANCE or abs(det - 1.0) > ROTATION_TOLERANCE:
+        raise error(
+            f"{name} must be a rotation matrix (orthonormal to {ROTATION_TOLERANCE}, det +1), got "
+            f"{show(matrix)} with max|R^T R - I| = {gram_error:.3g} and det = {det:.6g}"
+        )
+    return matrix
+
+
 def check_finite(array: NDArray[np.float64], name: str, error: type[PreviewctlError]) -> None:
     """Raise ``error`` naming the first non-finite entry of ``array``."""
     finite = np.isfinite(array)
