@@ -97,38 +97,35 @@ def test_planar4_ranks_at_generic_configurations(planar4: Robot) -> None:
 # ------------------------------------------------------------------------------ finite differences
 
 
-def fd_position_jacobian(robot: Robot, q: Array, frame: str, rows: slice, eps: float = 1e-6) -> Array:
-    """Central differences of a frame position with Pinocchio directly, on the tangent space."""
+def perturbed_placements(robot: Robot, q: Array, frame: str, eps: float) -> list[tuple[pin.SE3, pin.SE3]]:
+    """Placements of ``frame`` at ``q (+) eps e_k`` and ``q (-) eps e_k`` for every tangent direction k,
+    by Pinocchio's forward kinematics directly."""
     model = robot.model
     data = model.createData()
     fid = model.getFrameId(frame)
-    J = np.empty((3, model.nv))
+    pairs = []
     for k in range(model.nv):
         step = np.zeros(model.nv)
         step[k] = eps
         ends = []
         for sign in (1.0, -1.0):
             pin.framesForwardKinematics(model, data, pin.integrate(model, q, sign * step))
-            ends.append(np.array(data.oMf[fid].translation))
-        J[:, k] = (ends[0] - ends[1]) / (2 * eps)
+            ends.append(data.oMf[fid].copy())
+        pairs.append((ends[0], ends[1]))
+    return pairs
+
+
+def fd_position_jacobian(robot: Robot, q: Array, frame: str, rows: slice, eps: float = 1e-6) -> Array:
+    """Central differences of a frame position, on the tangent space."""
+    pairs = perturbed_placements(robot, q, frame, eps)
+    J = np.column_stack([(plus.translation - minus.translation) / (2 * eps) for plus, minus in pairs])
     return J[rows]
 
 
 def fd_rotation_jacobian(robot: Robot, q: Array, frame: str, eps: float = 1e-6) -> Array:
     """World angular-velocity Jacobian of a frame by central differences: log3(R+ R-^T) / 2 eps."""
-    model = robot.model
-    data = model.createData()
-    fid = model.getFrameId(frame)
-    J = np.empty((3, model.nv))
-    for k in range(model.nv):
-        step = np.zeros(model.nv)
-        step[k] = eps
-        rots = []
-        for sign in (1.0, -1.0):
-            pin.framesForwardKinematics(model, data, pin.integrate(model, q, sign * step))
-            rots.append(np.array(data.oMf[fid].rotation))
-        J[:, k] = pin.log3(rots[0] @ rots[1].T) / (2 * eps)
-    return J
+    pairs = perturbed_placements(robot, q, frame, eps)
+    return np.column_stack([pin.log3(plus.rotation @ minus.rotation.T) / (2 * eps) for plus, minus in pairs])
 
 
 def check_jacobians(robot: Robot, Q: Array) -> None:
