@@ -17,12 +17,12 @@ import os
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from previewctl.control import ControllerSpec
 from previewctl.errors import PreviewctlError
 from previewctl.scenario import Scenario, load_scenario
-from previewctl.simulate import RunResult, atomic_write, save_run, simulate
+from previewctl.simulate import RunResult, atomic_write_bytes, save_run, simulate
 
 PAPER_CONTROLLERS: dict[str, dict[str, Any]] = {
     "none": {},
@@ -90,8 +90,5 @@ def run_paper(
         summaries[name] = result.summary()
     text = (json.dumps(summaries, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)
-    def write(handle: IO[bytes]) -> None:
-        handle.write(text)
-
-    atomic_write(out / "summary.json", write)
+    atomic_write_bytes(out / "summary.json", text)
     return summaries

@@ -313,8 +313,13 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], None]) -> None:
         raise
 
 
-def _write_bytes(handle: IO[bytes], payload: bytes) -> None:
-    handle.write(payload)
+def atomic_write_bytes(path: Path, payload: bytes) -> None:
+    """:func:`atomic_write` of ``payload``."""
+
+    def write(handle: IO[bytes]) -> None:
+        handle.write(payload)
+
+    atomic_write(path, write)
 
 
 def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, Path]:
@@ -343,7 +348,7 @@ def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, 
     try:
         folder.mkdir(parents=True, exist_ok=True)
         atomic_write(npz_path, lambda handle: np.savez_compressed(handle, **arrays))
-        atomic_write(json_path, lambda handle: _write_bytes(handle, text.encode("utf-8")))
+        atomic_write_bytes(json_path, text.encode("utf-8"))
     except OSError as exc:
         raise PreviewctlError(f"cannot write the run to {str(folder)!r}: {exc}") from exc
     return npz_path, json_path
