@@ -599,7 +599,8 @@ def step_together(searches: Sequence[OneStepGA], targets: Sequence[object], time
         groups = np.repeat(np.arange(len(members)), [len(bred[i][0]) for i in members])
         Q, reachable = redundancy.solve_many(genes, branch, [targets[i] for i in members], groups)
         for k, i in enumerate(members):
-            solved[i] = Q[groups == k], reachable[groups == k]
+            rows = groups == k
+            solved[i] = Q[rows], reachable[rows]
     best = []
     for i, (ga, (genes, branch)) in enumerate(zip(searches, bred, strict=True)):
         if i in solved:
