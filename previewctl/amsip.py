@@ -27,7 +27,7 @@ from previewctl import planar, planar_distance
 from previewctl.avoidance import IndexParams, amsi_from_kinematics, kinematics, kinematics_reader
 from previewctl.errors import ConfigurationError
 from previewctl.motion import Static
-from previewctl.robot import PlanarChain, Robot
+from previewctl.robot import Robot
 from previewctl.scene import Box, Capsule, Clearance, Cylinder, Halfspace, Obstacle, Scene, Sphere
 
 Array = NDArray[np.float64]
@@ -139,6 +139,9 @@ class Evaluator:
         self.data = robot.model.createData()
         self._kinematics = kinematics_reader(robot, self.data)
         self.clearance = Clearance(robot, self.scene)
+        self._planar_arm = (
+            planar.PlanarArm(robot.planar, robot.structural_ranks, self.index) if robot.planar is not None else None
+        )
         # static obstacles: their planar kernels are built (and validated) once
         self._static_kernels = {
             i: _planar_kernel(o, 0.0) for i, o in enumerate(self.scene.obstacles) if isinstance(o.motion, Static)
@@ -173,8 +176,8 @@ class Evaluator:
         kernels = self._planar_kernels(t) if self.method != "general" else None
         if self.method == "planar" and kernels is None:
             self.uses_planar_path(t)  # raises the explanatory error
-        if kernels is not None and self.robot.planar is not None:
-            return self._planar(Q, self.robot.planar, kernels)
+        if kernels is not None and self._planar_arm is not None:
+            return self._planar(Q, self._planar_arm, kernels)
         return self._general(Q, t)
 
     def _general(self, Q: Array, t: float) -> Evaluation:
@@ -191,19 +194,20 @@ class Evaluator:
         return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 
     def _planar(
-        self, Q: Array, chain: PlanarChain, kernels: list[planar_distance.Kernel], chunk: int = 16384
+        self, Q: Array, arm: planar.PlanarArm, kernels: list[planar_distance.Kernel], chunk: int = 16384
     ) -> Evaluation:
         if Q.shape[0] <= chunk:
-            return self._planar_chunk(Q, chain, kernels)
-        parts = [self._planar_chunk(Q[s : s + chunk], chain, kernels) for s in range(0, Q.shape[0], chunk)]
+            return self._planar_chunk(Q, arm, kernels)
+        parts = [self._planar_chunk(Q[s : s + chunk], arm, kernels) for s in range(0, Q.shape[0], chunk)]
         return Evaluation(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Evaluation)})
 
-    def _planar_chunk(self, Q: Array, chain: PlanarChain, kernels: list[planar_distance.Kernel]) -> Evaluation:
-        points, trig = planar.joint_origins(chain, Q)
-        _, amsi = planar.amsi(chain, points, self.robot.structural_ranks, self.index)
+    def _planar_chunk(self, Q: Array, arm: planar.PlanarArm, kernels: list[planar_distance.Kernel]) -> Evaluation:
+        chain = arm.chain
+        points, trig = arm.joint_origins(Q)
+        _, amsi = arm.amsi(points)
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)
         if self.scene.obstacles:
-            a, b = planar.link_segments(chain, points, trig)
+            a, b = arm.link_segments(points, trig)
             capsule_d = planar_distance.apply(kernels[0], a, b, chain.link_radii)
             for kernel in kernels[1:]:
                 np.minimum(capsule_d, planar_distance.apply(kernel, a, b, chain.link_radii), out=capsule_d)

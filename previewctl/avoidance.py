@@ -325,10 +325,15 @@ def volumes_from_singular_values(singular_values: Array, ranks: tuple[int, ...] 
     return out
 
 
+def amsi_weights(ranks: tuple[int, ...] | NDArray[np.int_], params: IndexParams) -> Array:
+    """``(k,)`` factors ``a_i / L_ref^p_i`` of the volumes in the AMSI."""
+    exponents = np.asarray(ranks, dtype=float)
+    return params.weight_vector(exponents.size) / params.length_unit**exponents
+
+
 def amsi_from_volumes(volumes: Array, ranks: tuple[int, ...] | NDArray[np.int_], params: IndexParams) -> Array:
     """``E = sum_i a_i V_i / L_ref^p_i`` for ``volumes`` of shape ``(..., k)``."""
-    scale = params.weight_vector(volumes.shape[-1]) / params.length_unit ** np.asarray(ranks, dtype=float)
-    return np.asarray(volumes @ scale)
+    return np.asarray(volumes @ amsi_weights(ranks, params))
 
 
 def amsi_from_kinematics(robot: Robot, kin: Kinematics, params: IndexParams) -> Array:
