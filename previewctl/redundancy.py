@@ -81,9 +81,10 @@ __all__ = [
 def wrap_angle(angle: NDArray[np.float64] | float) -> NDArray[np.float64]:
     """Wrap angles [rad] to ``[-pi, pi)`` (``floor`` instead of the much slower ``%`` on floats)."""
     x = np.asarray(angle, dtype=float)
-    out = x - TWO_PI * np.floor((x + np.pi) * (1.0 / TWO_PI))
-    out = np.where(out >= np.pi, out - TWO_PI, out)  # rounding at the borders
-    return np.asarray(np.where(out < -np.pi, out + TWO_PI, out))
+    out = np.asarray(x - TWO_PI * np.floor((x + np.pi) * (1.0 / TWO_PI)))
+    out[out >= np.pi] -= TWO_PI  # rounding at the borders
+    out[out < -np.pi] += TWO_PI
+    return out
 
 
 @dataclass(frozen=True)
