@@ -141,25 +141,31 @@ def _joint_distance(A: Array, B: Array, periodic: NDArray[np.bool_]) -> Array:
     """Distances ``(a, b)`` [rad] between joint-angle vectors ``A (a, nv)`` and ``B (b, nv)``."""
     diff = A[:, None, :] - B[None, :, :]
     diff = np.where(periodic, wrap_angle(diff), diff)
-    return np.sqrt(np.sum(diff * diff, axis=-1))
+    return np.sqrt(np.add.reduce(diff * diff, axis=-1))
 
 
-def _distinct(order: NDArray[np.int_], angles: Array, periodic: NDArray[np.bool_], radius: float, k: int) -> list[int]:
-    """Greedy: walk ``order`` and keep the indices at least ``radius`` away from every kept one (up to k).
+def _distinct(angles: Array, periodic: NDArray[np.bool_], radius: float, k: int, block: int = 256) -> list[int]:
+    """Greedy: walk the rows of ``angles`` in order and keep those at least ``radius`` [rad] away from
+    every kept one (up to ``k``).
 
-    Each kept index suppresses its neighbours within ``radius`` in one vectorised distance computation.
+    The rows are taken in blocks (most walks end in the first one); each kept row suppresses its
+    neighbours in the block with one vectorised distance computation.
     """
     kept: list[int] = []
-    order = np.asarray(order, dtype=int)
-    alive = np.ones(order.size, dtype=bool)
-    candidates = angles[order]
-    while len(kept) < k:
-        free = np.flatnonzero(alive)
-        if free.size == 0:
+    for start in range(0, angles.shape[0], block):
+        rows = angles[start : start + block]
+        alive = np.ones(rows.shape[0], dtype=bool)
+        if kept:
+            alive = _joint_distance(rows, angles[kept], periodic).min(axis=1) >= radius
+        while len(kept) < k:
+            first = int(alive.argmax())
+            if not alive[first]:
+                break
+            kept.append(start + first)
+            alive &= _joint_distance(rows[first : first + 1], rows, periodic)[0] >= radius
+            alive[first] = False
+        if len(kept) == k:
             break
-        first = free[0]
-        kept.append(int(order[first]))
-        alive[free] = _joint_distance(candidates[first : first + 1], candidates[free], periodic)[0] >= radius
     return kept
 
 
@@ -169,11 +175,13 @@ def gene_periodic(redundancy: RedundancyMap) -> NDArray[np.bool_]:
     return np.asarray(getattr(redundancy, "periodic", np.zeros(g, dtype=bool)), dtype=bool).reshape(g)
 
 
-def _candidate(
-    genes: Array, branch: NDArray[np.int_], Q: Array, S: Array, i: int, periodic: NDArray[np.bool_]
-) -> Candidate:
-    g = np.where(periodic, wrap_angle(genes[i]), genes[i])
-    return Candidate(g, int(branch[i]), Q[i].copy(), float(S[i]))
+def _candidates(
+    genes: Array, branch: NDArray[np.int_], Q: Array, S: Array, rows: list[int], periodic: NDArray[np.bool_]
+) -> list[Candidate]:
+    """The individuals ``rows`` of a population as candidates (periodic genes wrapped)."""
+    chosen = genes[rows]
+    chosen = np.where(periodic, wrap_angle(chosen), chosen)
+    return [Candidate(chosen[j], int(branch[i]), Q[i].copy(), float(S[i])) for j, i in enumerate(rows)]
 
 
 def _check_positive_int(name: str, value: object, minimum: int = 1) -> int:
@@ -322,7 +330,7 @@ def explore(
         S_map = S.reshape((branches, *(len(a) for a in axes)))
         maxima = np.flatnonzero(_grid_maxima(S_map, gene_periodic(red)).ravel())
         order = maxima[np.argsort(-S[maxima], kind="stable")]
-        picked = _distinct(np.arange(order.size), joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
+        picked = _distinct(joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
         kept = [int(order[k]) for k in picked]
     else:
         S_map = None
@@ -437,7 +445,10 @@ class OneStepGA:
         self._branch = np.zeros(0, dtype=int)
         self._S = np.zeros(0)
         self._Q = np.zeros((0, robot.nq))
+        self._best: Candidate | None = None
         self._peaks: tuple[Candidate, ...] = ()
+        self._peak_genes = np.zeros((0, self.g))  # the peaks' genes and branches, for re-injection
+        self._peak_branch = np.zeros(0, dtype=int)
         self._pending_genes = np.zeros((0, self.g))
         self._pending_branch = np.zeros(0, dtype=int)
 
@@ -450,9 +461,9 @@ class OneStepGA:
         Raises:
             ConfigurationError: before the first :meth:`step`.
         """
-        if self._S.size == 0:
+        if self._best is None:
             raise ConfigurationError("OneStepGA.best is only defined after the first step()")
-        return _candidate(self._genes, self._branch, self._Q, self._S, int(np.argmax(self._S)), self._gene_periodic)
+        return self._best
 
     def peaks(self) -> tuple[Candidate, ...]:
         """Up to ``top_k`` distinct optima (at least ``niche_radius`` apart, ``S > 0``), best first."""
@@ -487,6 +498,8 @@ class OneStepGA:
 
     def _repair(self, genes: Array) -> Array:
         """Wrap periodic genes, reflect bounded ones into their bounds."""
+        if self._gene_periodic.all():
+            return wrap_angle(genes)
         span = self._upper - self._lower
         reflected = np.abs((genes - self._lower) % (2 * span) - span)
         bounded = self._upper - reflected
@@ -494,10 +507,11 @@ class OneStepGA:
 
     def _offspring(self, count: int) -> tuple[Array, NDArray[np.int_]]:
         rng, P = self.rng, self._S.size
-        contenders = rng.integers(0, P, (2, count, self.tournament))
-        winners = np.take_along_axis(contenders, np.argmax(self._S[contenders], axis=-1)[..., None], -1)[..., 0]
+        contenders = rng.integers(0, P, (2 * count, self.tournament))
+        winners = contenders[np.arange(2 * count), np.argmax(self._S[contenders], axis=1)].reshape(2, count)
         a, b = self._genes[winners[0]], self._genes[winners[1]]
-        diff = np.where(self._gene_periodic, wrap_angle(b - a), b - a)
+        diff = b - a
+        diff = np.where(self._gene_periodic, wrap_angle(diff), diff)
         u = rng.uniform(-self.blend, 1.0 + self.blend, (count, self.g))
         cross = rng.random(count) < self.crossover_rate
         child = np.where(cross[:, None], a + u * diff, a)
@@ -523,13 +537,11 @@ class OneStepGA:
         elite = np.argsort(-self._S, kind="stable")[: self.elite]
         parts_g = [self._genes[elite]]
         parts_b = [self._branch[elite]]
-        fresh = [
-            p for p in self._peaks
-            if not any(np.array_equal(p.genes, self._genes[i]) and p.branch == self._branch[i] for i in elite)
-        ]
-        if fresh:
-            parts_g.append(np.array([p.genes for p in fresh]).reshape(len(fresh), self.g))
-            parts_b.append(np.array([p.branch for p in fresh], dtype=int))
+        # the peaks that are not already among the elites
+        same = (self._peak_genes[:, None] == parts_g[0][None]).all(axis=2) & (self._peak_branch[:, None] == parts_b[0])
+        fresh = ~same.any(axis=1)
+        parts_g.append(self._peak_genes[fresh])
+        parts_b.append(self._peak_branch[fresh])
         room = P - sum(len(p) for p in parts_b)
         parts_g.append(pending_g[:room])
         parts_b.append(pending_b[:room])
@@ -571,11 +583,14 @@ class OneStepGA:
         valid = np.flatnonzero(self._S > 0)
         order = valid[np.argsort(-self._S[valid], kind="stable")]
         angles = joint_angles(self.robot, self._Q[order]) if order.size else np.zeros((0, self.robot.nv))
-        kept = _distinct(np.arange(order.size), angles, self._joint_periodic, self.niche_radius, self.top_k)
-        self._peaks = tuple(
-            _candidate(genes, branch, self._Q, self._S, int(order[k]), self._gene_periodic) for k in kept
+        kept = [int(order[k]) for k in _distinct(angles, self._joint_periodic, self.niche_radius, self.top_k)]
+        best, *peaks = _candidates(
+            genes, branch, self._Q, self._S, [int(np.argmax(self._S)), *kept], self._gene_periodic
         )
-        return self.best
+        self._best, self._peaks = best, tuple(peaks)
+        self._peak_genes = np.array([p.genes for p in peaks]).reshape(len(peaks), self.g)
+        self._peak_branch = np.array([p.branch for p in peaks], dtype=int)
+        return best
 
 
 def step_together(searches: Sequence[OneStepGA], targets: Sequence[object], times: Sequence[float]) -> list[Candidate]:

@@ -103,6 +103,27 @@ def test_peaks_are_distinct_local_maxima(planar4: Robot, landscapes: list[Landsc
                 assert np.linalg.norm(diff) >= 0.35
 
 
+def test_peaks_without_separation_are_the_best_maxima_once_each(planar4: Robot, evaluator: Evaluator) -> None:
+    land = explore(planar4, evaluator, PATH[2], min_separation=0.0, top_k=6)
+    assert land.S_map is not None
+    is_max = land.S_map > 0
+    for shift in [(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj]:
+        is_max &= land.S_map >= np.roll(land.S_map, shift, axis=(1, 2))
+    maxima = land.S_map[is_max]
+    assert [p.S for p in land.peaks] == sorted(maxima, reverse=True)[:6]
+    assert len({(p.branch, *np.round(p.genes, 9)) for p in land.peaks}) == 6
+
+
+def test_distinct_walks_blocks_like_one_pass() -> None:
+    from previewctl.search import _distinct
+
+    angles = np.random.default_rng(0).uniform(-np.pi, np.pi, (300, 4))
+    periodic = np.array([True, True, False, False])
+    one_pass = _distinct(angles, periodic, 2.0, 40, block=300)
+    assert len(one_pass) > 10
+    assert _distinct(angles, periodic, 2.0, 40, block=7) == one_pass
+
+
 def test_explore_unreachable_target_raises(planar4: Robot, evaluator: Evaluator) -> None:
     with pytest.raises(UnreachableTargetError, match=r"target \[3.5, 0.5, 0.0\]"):
         explore(planar4, evaluator, np.array([3.5, 0.5]))
