@@ -22,9 +22,9 @@ Array = NDArray[np.float64]
 
 
 class PlanarArm:
-    """The closed-form path of one planar chain: its constants are prepared once, so that a call on a
-    small batch (a GA population) is a short, fixed sequence of array operations over all joints and
-    control points at once.
+    """The closed-form path of one planar chain. Its constants (link offsets, capsule ends, AMSI
+    weights) are prepared once, and link vectors and capsule ends are computed for all links in one
+    array operation: on a small batch (a GA population) the number of numpy calls sets the cost.
 
     Args:
         chain: the planar chain.
