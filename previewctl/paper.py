@@ -21,8 +21,9 @@ from typing import Any
 
 from previewctl.control import ControllerSpec
 from previewctl.errors import PreviewctlError
+from previewctl.files import atomic_write_bytes
 from previewctl.scenario import Scenario, load_scenario
-from previewctl.simulate import RunResult, atomic_write_bytes, save_run, simulate
+from previewctl.simulate import RunResult, save_run, simulate
 
 PAPER_CONTROLLERS: dict[str, dict[str, Any]] = {
     "none": {},

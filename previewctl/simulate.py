@@ -20,13 +20,11 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 import time
 from collections.abc import Callable
-from contextlib import suppress
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -44,6 +42,7 @@ from previewctl.control import (
     task_target,
 )
 from previewctl.errors import PreviewctlError
+from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.scenario import Scenario
 
 Array = NDArray[np.float64]
@@ -292,34 +291,6 @@ def _log_command(log: dict[str, Any], k: int, hand: Array, info: ControlInfo, qd
 
 
 # ------------------------------------------------------------------------------------ saving
-
-
-def atomic_write(path: Path, write: Callable[[IO[bytes]], None]) -> None:
-    """Write ``path`` through a temporary file in the same folder and ``os.replace``.
-
-    On any failure the temporary file is removed and ``path`` is left as it was.
-    """
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; a log is an ordinary file
-        with os.fdopen(fd, "wb") as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-
-
-def atomic_write_bytes(path: Path, payload: bytes) -> None:
-    """:func:`atomic_write` of ``payload``."""
-
-    def write(handle: IO[bytes]) -> None:
-        handle.write(payload)
-
-    atomic_write(path, write)
 
 
 def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, Path]:

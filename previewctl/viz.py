@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.drawing import arm_points, clip_halfplane, obstacle_section
+from previewctl.files import atomic_write, save_figure
 from previewctl.motion import Static
 from previewctl.robot import Robot
 from previewctl.scenario import Scenario
@@ -199,11 +200,9 @@ def strobe_plot(
         sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(float(result.t[0]), float(result.t[-1])))
         fig.colorbar(sm, ax=ax, label="t [s]", shrink=0.7)
         ax.legend(loc="best", fontsize=8)
-        out = Path(path)
-        fig.savefig(out, dpi=110, bbox_inches="tight")
+        return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return out
 
 
 def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], poses: int) -> Path:
@@ -254,11 +253,9 @@ def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[st
         ax.set_ylabel("y [m]")
         ax.set_zlabel("z [m]")
         ax.set_title(f"{result.scenario} -- {result.controller}: {_collision_text(result)}")
-        out = Path(path)
-        fig.savefig(out, dpi=110, bbox_inches="tight")
+        return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return out
 
 
 def _mark_collision(ax: Any, result: RunResult) -> None:
@@ -283,11 +280,9 @@ def s_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
         )
         ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
-        out = Path(path)
-        fig.savefig(out, dpi=110, bbox_inches="tight")
+        return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return out
 
 
 def clearance_plot(result: RunResult, path: str | os.PathLike[str], *, influence_distance: float | None = None) -> Path:
@@ -311,11 +306,9 @@ def clearance_plot(result: RunResult, path: str | os.PathLike[str], *, influence
         if finite.any():
             ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
-        out = Path(path)
-        fig.savefig(out, dpi=110, bbox_inches="tight")
+        return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return out
 
 
 def error_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
@@ -337,11 +330,9 @@ def error_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
         for ax in (top, bottom):
             _mark_collision(ax, result)
         top.set_title(f"{result.scenario} -- {result.controller}: tracking and joint speed")
-        out = Path(path)
-        fig.savefig(out, dpi=110, bbox_inches="tight")
+        return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return out
 
 
 def animate_gif(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], *, fps: float = 10.0,
@@ -406,7 +397,8 @@ def animate_gif(result: RunResult, scenario: Scenario, path: str | os.PathLike[s
     finally:
         plt.close(fig)
     out = Path(path)
-    frames[0].save(out, save_all=True, append_images=frames[1:], duration=round(1000 / fps), loop=0, optimize=False)
+    atomic_write(out, lambda handle: frames[0].save(handle, format="GIF", save_all=True, append_images=frames[1:],
+                                                    duration=round(1000 / fps), loop=0, optimize=False))
     return out
 
 

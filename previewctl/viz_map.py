@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from previewctl.drawing import Bounds, arm_points, obstacle_section
 from previewctl.errors import ConfigurationError
+from previewctl.files import save_figure
 from previewctl.robot import Robot
 from previewctl.scene import Box, Capsule, Cylinder, Halfspace, Scene, Sphere
 from previewctl.search import Landscape
@@ -152,7 +153,6 @@ def plot_landscape(
     from matplotlib.colors import Normalize
 
     scene = scene or Scene()
-    out = Path(path)
     cmap = _colormap()
     valid = landscape.S[landscape.S >= 0]
     vmax = float(valid.max()) if valid.size else 1.0
@@ -160,49 +160,50 @@ def plot_landscape(
     grid = landscape.S_map is not None and len(landscape.axes) == 2
     panels = landscape.S_map.shape[0] if grid and landscape.S_map is not None else 1
     fig = plt.figure(figsize=(5.0 * (panels + 1) + 1.0, 4.8), layout="constrained")
-    image = None
-    if grid and landscape.S_map is not None:
-        ax0, ax1 = (np.degrees(a) for a in landscape.axes)
-        step0 = ax0[1] - ax0[0] if len(ax0) > 1 else 1.0
-        step1 = ax1[1] - ax1[0] if len(ax1) > 1 else 1.0
-        extent = (ax0[0] - step0 / 2, ax0[-1] + step0 / 2, ax1[0] - step1 / 2, ax1[-1] + step1 / 2)
-        for b in range(panels):
-            ax = fig.add_subplot(1, panels + 1, b + 1)
-            image = ax.imshow(landscape.S_map[b].T, origin="lower", extent=extent, cmap=cmap, norm=norm,
-                              aspect="auto", interpolation="nearest")
-            _mark(ax, landscape, b)
-            ax.set_xlabel("q1 [deg]")
-            ax.set_ylabel("q2 [deg]")
-            label = ("elbow q_n >= 0", "elbow q_n < 0")[b] if panels == 2 else f"branch {b}"
-            ax.set_title(f"S over (q1, q2), {label}", fontsize=10)
-            if ax.get_legend_handles_labels()[0]:
-                ax.legend(loc="upper right", fontsize=7, facecolor="#dddddd")
-    else:
-        ax = fig.add_subplot(1, 2, 1)
-        genes = _degrees(landscape.genes, grid=False)
-        x = genes[:, 0] if genes.shape[1] else np.zeros(len(genes))
-        y = genes[:, 1] if genes.shape[1] > 1 else np.zeros(len(genes))
-        order = np.argsort(landscape.S)
-        image = ax.scatter(x[order], y[order], c=landscape.S[order], cmap=cmap, norm=norm, s=6)
-        _mark(ax, landscape, None)
-        ax.set_facecolor("#202020")
-        ax.set_xlabel("gene 1 [deg]")
-        ax.set_ylabel("gene 2 [deg]")
-        ax.set_title(f"S of {len(landscape.S)} samples (black: S < 0)", fontsize=10)
-    if image is not None:
-        fig.colorbar(image, ax=fig.axes[:panels], shrink=0.85, label="AMSIP S (black: S < 0)", extend="min")
-    q_best = landscape.best.q
-    if robot.task == "planar":
-        _draw_arm(fig.add_subplot(1, panels + 1, panels + 1), robot, q_best, scene, landscape.t, landscape.target)
-    else:
-        _draw_arm_3d(fig.add_subplot(1, panels + 1, panels + 1, projection="3d"), robot, q_best, scene,
-                     landscape.t, landscape.target)
-    target = np.round(landscape.target[:2] if robot.task == "planar" else landscape.target, 3).tolist()
-    fig.suptitle(title or f"{robot.name}: hand target {target} m, t = {landscape.t:g} s, best S = "
-                 f"{landscape.best.S:.1f}", fontsize=11)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    try:
+        image = None
+        if grid and landscape.S_map is not None:
+            ax0, ax1 = (np.degrees(a) for a in landscape.axes)
+            step0 = ax0[1] - ax0[0] if len(ax0) > 1 else 1.0
+            step1 = ax1[1] - ax1[0] if len(ax1) > 1 else 1.0
+            extent = (ax0[0] - step0 / 2, ax0[-1] + step0 / 2, ax1[0] - step1 / 2, ax1[-1] + step1 / 2)
+            for b in range(panels):
+                ax = fig.add_subplot(1, panels + 1, b + 1)
+                image = ax.imshow(landscape.S_map[b].T, origin="lower", extent=extent, cmap=cmap, norm=norm,
+                                  aspect="auto", interpolation="nearest")
+                _mark(ax, landscape, b)
+                ax.set_xlabel("q1 [deg]")
+                ax.set_ylabel("q2 [deg]")
+                label = ("elbow q_n >= 0", "elbow q_n < 0")[b] if panels == 2 else f"branch {b}"
+                ax.set_title(f"S over (q1, q2), {label}", fontsize=10)
+                if ax.get_legend_handles_labels()[0]:
+                    ax.legend(loc="upper right", fontsize=7, facecolor="#dddddd")
+        else:
+            ax = fig.add_subplot(1, 2, 1)
+            genes = _degrees(landscape.genes, grid=False)
+            x = genes[:, 0] if genes.shape[1] else np.zeros(len(genes))
+            y = genes[:, 1] if genes.shape[1] > 1 else np.zeros(len(genes))
+            order = np.argsort(landscape.S)
+            image = ax.scatter(x[order], y[order], c=landscape.S[order], cmap=cmap, norm=norm, s=6)
+            _mark(ax, landscape, None)
+            ax.set_facecolor("#202020")
+            ax.set_xlabel("gene 1 [deg]")
+            ax.set_ylabel("gene 2 [deg]")
+            ax.set_title(f"S of {len(landscape.S)} samples (black: S < 0)", fontsize=10)
+        if image is not None:
+            fig.colorbar(image, ax=fig.axes[:panels], shrink=0.85, label="AMSIP S (black: S < 0)", extend="min")
+        q_best = landscape.best.q
+        if robot.task == "planar":
+            _draw_arm(fig.add_subplot(1, panels + 1, panels + 1), robot, q_best, scene, landscape.t, landscape.target)
+        else:
+            _draw_arm_3d(fig.add_subplot(1, panels + 1, panels + 1, projection="3d"), robot, q_best, scene,
+                         landscape.t, landscape.target)
+        target = np.round(landscape.target[:2] if robot.task == "planar" else landscape.target, 3).tolist()
+        fig.suptitle(title or f"{robot.name}: hand target {target} m, t = {landscape.t:g} s, best S = "
+                     f"{landscape.best.S:.1f}", fontsize=11)
+        return save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def plot_surface(landscape: Landscape, path: str | Path = "map_surface.png", *, title: str | None = None) -> Path:
@@ -225,18 +226,18 @@ def plot_surface(landscape: Landscape, path: str | Path = "map_surface.png", *, 
     vmax = float(max(S.max(), 1e-9))
     colours = cmap(Normalize(vmin=1e-9 * max(vmax, 1.0), vmax=vmax)(np.where(S >= 0, S, -1.0)))
     fig = plt.figure(figsize=(7.5, 6))
-    ax = fig.add_subplot(1, 1, 1, projection="3d")
-    ax.plot_surface(X, Y, np.maximum(S, 0.0), facecolors=colours, linewidth=0, antialiased=False, shade=False)
-    for k, peak in enumerate(landscape.peaks, start=1):
-        g = np.degrees(np.mod(peak.genes, 2 * np.pi))
-        ax.scatter(g[0], g[1], peak.S, color="white", edgecolor="black", s=40)
-        ax.text(g[0], g[1], peak.S * 1.03, f"peak {k}", fontsize=8)
-    ax.set_xlabel("q1 [deg]")
-    ax.set_ylabel("q2 [deg]")
-    ax.set_zlabel("S")
-    where = np.round(landscape.target[:2], 3).tolist()
-    ax.set_title(title or f"AMSIP max over branches, target {where} m", fontsize=10)
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    try:
+        ax = fig.add_subplot(1, 1, 1, projection="3d")
+        ax.plot_surface(X, Y, np.maximum(S, 0.0), facecolors=colours, linewidth=0, antialiased=False, shade=False)
+        for k, peak in enumerate(landscape.peaks, start=1):
+            g = np.degrees(np.mod(peak.genes, 2 * np.pi))
+            ax.scatter(g[0], g[1], peak.S, color="white", edgecolor="black", s=40)
+            ax.text(g[0], g[1], peak.S * 1.03, f"peak {k}", fontsize=8)
+        ax.set_xlabel("q1 [deg]")
+        ax.set_ylabel("q2 [deg]")
+        ax.set_zlabel("S")
+        where = np.round(landscape.target[:2], 3).tolist()
+        ax.set_title(title or f"AMSIP max over branches, target {where} m", fontsize=10)
+        return save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
