@@ -54,7 +54,6 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.amsip import Evaluator
-from previewctl.avoidance import FrameKinematics
 from previewctl.errors import ConfigurationError
 from previewctl.robot import Robot
 from previewctl.validation import show as _show
@@ -418,7 +417,7 @@ class NewtonRedundancy:
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
-        self._tip = FrameKinematics(robot.model, (robot.tip_frame_id,), self.data)
+        self._hand_placement = self.data.oMf[robot.tip_frame_id]  # an element reference, refreshed by each call
         self.tolerance, self.angle_tolerance = float(tolerance), float(angle_tolerance)
         self.iterations, self.damping = iterations, float(damping)
         self.max_step = float(max_step)
@@ -474,6 +473,20 @@ class NewtonRedundancy:
         return genes, np.zeros(Qb.shape[0], dtype=int)
 
     # ----------------------------------------------------------------------------- projection
+
+    def _hand(self, Q: Array) -> tuple[Array, Array]:
+        """Hand placements ``(A, 4, 4)`` and world-aligned Jacobians ``(A, 6, nv)`` (linear rows first).
+
+        One ``computeFrameJacobian`` per row: for the hand frame alone this beats the batched assembly
+        of :class:`~previewctl.avoidance.FrameKinematics`, whose fixed numpy cost dominates the small
+        batches of the late Newton passes.
+        """
+        model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement
+        jacobians, placements = [], []
+        for q in Q:
+            jacobians.append(pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED))
+            placements.append(placement.homogeneous)
+        return np.array(placements).reshape(-1, 4, 4), np.array(jacobians).reshape(-1, 6, model.nv)
 
     def _task_error(self, goal_positions: Array, goal_rotations: Array | None, positions: Array,
                     rotations: Array) -> Array:
@@ -590,13 +603,13 @@ class NewtonRedundancy:
         active = np.arange(B)
         reachable = np.zeros(B, dtype=bool)
         for iteration in range(self.iterations + 1):
-            placements, jacobians = self._tip(Q[active])
-            J = jacobians[:, 0, self.rows]
+            placements, jacobians = self._hand(Q[active])
+            J = jacobians[:, self.rows]
             err = self._task_error(
                 goal_positions[active],
                 None if goal_rotations is None else goal_rotations[active],
-                placements[:, 0, :3, 3],
-                placements[:, 0, :3, :3],
+                placements[:, :3, 3],
+                placements[:, :3, :3],
             )
             done = self._converged(err)
             reachable[active[done]] = True
