@@ -7,7 +7,9 @@
    is extrapolated to the full grid (said so in the output).
 2. One generation of the 1-step GA (population 64) on planar4 and on the Panda (capsule and convex
    collision geometry, one sphere obstacle), with the share of the AMSIP evaluation, and how many
-   generations fit in a 33 ms camera frame.
+   generations fit in a 33 ms camera frame. On the Panda, the bare Pinocchio + Coal calls of that
+   evaluation are timed too (one ``computeJointJacobians``, ``updateGeometryPlacements`` and
+   ``computeDistances`` per row, nothing else): the floor that no numpy work around them can beat.
 
 Wall times are medians; CPU times (process time) are printed too, since a shared machine inflates wall
 time. Run: ``PYTHONPATH=. python benchmarks/bench_search.py``.
@@ -19,6 +21,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+import pinocchio as pin
 
 from previewctl.amsip import Evaluator
 from previewctl.motion import Static
@@ -84,6 +87,19 @@ def bench_ga(name: str, robot_name: str, scene: Scene, target: np.ndarray, geome
     print(f"{name}: one GA generation of 64  {1e3 * wall:7.2f} ms wall {1e3 * cpu:7.2f} ms CPU "
           f"(AMSIP evaluation {1e3 * c_eval:.2f} ms CPU, the rest: redundancy map + GA operators) -> "
           f"{FRAME / wall:.1f} generations per 33 ms frame ({FRAME / cpu:.1f} by CPU time); best S {ga.best.S:.1f}")
+    if robot.planar is None:
+        _, c_bare = timed(lambda: library_calls(evaluator, Q[ok]), repeat)
+        print(f"  of the evaluation, Pinocchio + Coal calls alone: {1e3 * c_bare:.2f} ms CPU for {int(ok.sum())} rows "
+              f"({1e6 * c_bare / max(int(ok.sum()), 1):.1f} us a row)")
+
+
+def library_calls(evaluator: Evaluator, Q: np.ndarray) -> None:
+    """Only the library calls of an evaluation: kinematics, geometry placements and distances per row."""
+    model, data, clearance = evaluator.robot.model, evaluator.data, evaluator.clearance
+    for q in Q:
+        pin.computeJointJacobians(model, data, q)
+        pin.updateGeometryPlacements(model, data, clearance.geometry, clearance.data)
+        pin.computeDistances(clearance.geometry, clearance.data)
 
 
 def main() -> None:
