@@ -1,7 +1,8 @@
 """Control-cycle time of multi-preview control (p = 3, population 64), set against the 33 ms frame.
 
 A cycle that falls on a camera frame runs one GA generation per imaginary arm (three here); the
-others only apply eq. 19 with the last targets. Both are reported: median and worst over the run.
+others only apply eq. 19 with the last targets. Both are reported: median, 99th percentile and worst
+over the run (on a shared machine the worst can be a stall of the host; the 99th percentile is not).
 
 Run: ``python benchmarks/bench_control.py [--quick]``.
 """
@@ -33,7 +34,8 @@ def report(label: str, scenario: Scenario) -> None:
     for kind, mask in (("frame cycles", frames), ("other cycles", ~frames)):
         if mask.any():
             c = cycle[mask]
-            print(f"{label:<34}{kind:<14}{np.median(c):>9.2f}{c.max():>9.2f}{100 * np.median(c) / FRAME_MS:>9.0f}%")
+            print(f"{label:<34}{kind:<14}{np.median(c):>9.2f}{np.percentile(c, 99):>9.2f}{c.max():>9.2f}"
+                  f"{100 * np.median(c) / FRAME_MS:>9.0f}%")
 
 
 def main() -> None:
@@ -41,7 +43,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="shorter runs (a smoke test)")
     args = parser.parse_args()
     duration = 2.0 if args.quick else 10.0
-    print(f"{'scene (multi, p = 3, population 64)':<34}{'cycles':<14}{'median':>9}{'worst':>9}{'of 33ms':>10}")
+    header = f"{'scene (multi, p = 3, population 64)':<34}{'cycles':<14}"
+    print(f"{header}{'median':>9}{'p99':>9}{'worst':>9}{'of 33ms':>10}")
     report("planar4, paper_planar", multi(canonical_scenario(), duration))
     panda = load_scenario(shipped_scenarios_dir() / "panda_crossing.toml")
     report("panda (convex), panda_crossing", multi(panda, duration))
