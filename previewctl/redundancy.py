@@ -417,7 +417,9 @@ class NewtonRedundancy:
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
-        self._hand_placement = self.data.oMf[robot.tip_frame_id]  # an element reference, refreshed by each call
+        # an element reference: computeFrameJacobian(..., LOCAL_WORLD_ALIGNED) writes the hand's placement
+        # there (Pinocchio's frames.hxx); the Newton tests check the hand by independent forward kinematics
+        self._hand_placement = self.data.oMf[robot.tip_frame_id]
         self.tolerance, self.angle_tolerance = float(tolerance), float(angle_tolerance)
         self.iterations, self.damping = iterations, float(damping)
         self.max_step = float(max_step)
