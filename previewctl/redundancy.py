@@ -65,7 +65,6 @@ __all__ = [
     "NewtonRedundancy",
     "PlanarRedundancy",
     "RedundancyMap",
-    "S_of",
     "Scored",
     "Target",
     "joint_angles",
@@ -698,16 +697,3 @@ def score_configurations(evaluator: Evaluator, Q: Array, reachable: NDArray[np.b
         S[reachable] = ev.S
         collision[reachable] = ev.collision
     return Scored(Q, reachable, S, collision)
-
-
-def S_of(  # noqa: N802 -- the paper's symbol S
-    evaluator: Evaluator,
-    redundancy: RedundancyMap,
-    genes: Array,
-    branch: NDArray[np.int_],
-    target: object,
-    t: float = 0.0,
-    q_seed: Array | None = None,
-) -> Array:
-    """AMSIP ``(B,)`` of genes at ``target`` and time ``t`` [s]; unreachable entries are ``collision_value``."""
-    return score(evaluator, redundancy, genes, branch, target, t, q_seed).S

@@ -18,7 +18,6 @@ from previewctl.motion import Static
 from previewctl.redundancy import (
     NewtonRedundancy,
     PlanarRedundancy,
-    S_of,
     parse_target,
     redundancy_map,
     score,
@@ -96,7 +95,7 @@ def test_planar_unreachable_genes_are_flagged_and_score_negative(planar4: Robot)
     # the unreachable arm is stretched toward the target: last two links aligned (q4 = 0)
     assert Q[0, 3] == pytest.approx(0.0)
     ev = Evaluator(planar4)
-    S = S_of(ev, red, genes, np.zeros(3, dtype=int), target)
+    S = score(ev, red, genes, np.zeros(3, dtype=int), target).S
     assert S[0] == ev.potential.collision_value < 0 and S[2] < 0
     assert S[1] >= 0
 
