@@ -5,7 +5,7 @@ ball of radius ``r`` [m]. Every function takes a batch of links, ``a`` and ``b``
 ``(B, L, 3)`` and ``radius`` of shape ``(L,)``, and returns the ``(B, L)`` signed distances [m]
 between each link and one obstacle: positive is clearance, ``<= 0`` touching or overlapping.
 No Python loop runs over configurations: each function is a fixed sequence of numpy operations
-over blocks of ~16k links (see `_blocked`). For a 4-link arm, `to_box` evaluates about 2.3 and
+over blocks of ~16k links (see `apply`). For a 4-link arm, `to_box` evaluates about 2.3 and
 `to_capsule` about 3.4 million configurations per second (measured on a 2-core VM).
 
 * Sphere and capsule obstacles are exact in 3-D (the obstacle may leave the plane):
@@ -146,7 +146,7 @@ def cylinder_is_planar(
 # ---------------------------------------------------------------------------------- kernels
 #
 # A kernel maps one block of links, ``a`` and ``b`` of shape ``(n, L, 3)``, to ``(n, L)`` signed
-# distances; `_blocked` runs it over blocks of about `_BLOCK_LINKS` links. Every operation inside
+# distances; `apply` runs it over blocks of about `_BLOCK_LINKS` links. Every operation inside
 # is a numpy operation over the whole block: the blocks only keep the ~30 temporaries of a kernel
 # in the CPU cache, which made the kernels 2-3x faster than one pass over 400,000 links.
 
@@ -155,12 +155,8 @@ _BLOCK_LINKS = 16384
 
 
 def apply(kernel: Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
-    """Distances ``(B, L)`` [m] of a prepared kernel (``*_kernel``) for links ``(B, L, 3)``, unchecked."""
-    return _blocked(kernel, a, b, radius)
-
-
-def _blocked(kernel: Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
-    """``kernel(a, b, radius)`` for ``(..., L, 3)`` end points, evaluated block by block."""
+    """Distances ``(..., L)`` [m] of a prepared kernel (``*_kernel``) for links with ``(..., L, 3)`` end
+    points (unchecked), evaluated block by block."""
     out = np.empty(a.shape[:-1])
     if out.size == 0:
         return out
@@ -311,12 +307,11 @@ def sphere_kernel(
     sphere_radius: float,
 ) -> Kernel:
     """The validated distance kernel of :func:`to_sphere` (build once, apply with :func:`apply`)."""
-    kernel = partial(
+    return partial(
         _point_kernel,
         center=tuple(_vector3(center, "sphere center").tolist()),
         clearance=_length(sphere_radius, "sphere radius"),
     )
-    return kernel
 
 
 def to_sphere(
@@ -345,7 +340,7 @@ def to_sphere(
         SceneError: The center is not 3 finite numbers or the sphere radius is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    return _blocked(sphere_kernel(center, sphere_radius), a, b, radius)
+    return apply(sphere_kernel(center, sphere_radius), a, b, radius)
 
 
 def capsule_kernel(
@@ -355,13 +350,12 @@ def capsule_kernel(
 ) -> Kernel:
     """The validated distance kernel of :func:`to_capsule` (build once, apply with :func:`apply`)."""
     q0 = _vector3(p0, "capsule p0")
-    kernel = partial(
+    return partial(
         _capsule_kernel,
         p=tuple(q0.tolist()),
         d2=tuple((_vector3(p1, "capsule p1") - q0).tolist()),
         clearance=_length(capsule_radius, "capsule radius"),
     )
-    return kernel
 
 
 def to_capsule(
@@ -393,7 +387,7 @@ def to_capsule(
         SceneError: An axis end is not 3 finite numbers or the capsule radius is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    return _blocked(capsule_kernel(p0, p1, capsule_radius), a, b, radius)
+    return apply(capsule_kernel(p0, p1, capsule_radius), a, b, radius)
 
 
 def box_kernel(
@@ -411,13 +405,12 @@ def box_kernel(
             f"(0, 0, +-1)) and |center_z| <= half_extents_z; got center {c.tolist()}, "
             f"rotation {rot.tolist()}, half_extents {h.tolist()}"
         )
-    kernel = partial(
+    return partial(
         _box_kernel,
         center=(float(c[0]), float(c[1])),
         axes=(float(rot[0, 0]), float(rot[1, 0]), float(rot[0, 1]), float(rot[1, 1])),
         half=(float(h[0]), float(h[1])),
     )
-    return kernel
 
 
 def to_box(
@@ -453,7 +446,7 @@ def to_box(
         SceneError: The box is not planar (see :func:`box_is_planar`) or a half extent is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    return _blocked(box_kernel(center, rotation, half_extents), a, b, radius)
+    return apply(box_kernel(center, rotation, half_extents), a, b, radius)
 
 
 def vertical_cylinder_kernel(
@@ -469,8 +462,7 @@ def vertical_cylinder_kernel(
             "to_vertical_cylinder needs |center_z| <= half_length so that the cylinder meets the "
             f"plane z = 0; got center {c.tolist()}, half_length {half_length!r}"
         )
-    kernel = partial(_point_kernel, center=(float(c[0]), float(c[1])), clearance=clearance)
-    return kernel
+    return partial(_point_kernel, center=(float(c[0]), float(c[1])), clearance=clearance)
 
 
 def to_vertical_cylinder(
@@ -503,7 +495,7 @@ def to_vertical_cylinder(
         SceneError: The cylinder does not meet the plane z = 0, or a size is < 0.
     """
     a, b, radius = _links(a, b, radius)
-    return _blocked(vertical_cylinder_kernel(center, cyl_radius, half_length), a, b, radius)
+    return apply(vertical_cylinder_kernel(center, cyl_radius, half_length), a, b, radius)
 
 
 def halfspace_kernel(
@@ -515,8 +507,7 @@ def halfspace_kernel(
     norm = float(np.linalg.norm(n))
     if norm == 0.0 or not np.isfinite(float(offset)):
         raise SceneError(f"a half-space needs a nonzero normal and a finite offset; got {normal!r}, {offset!r}")
-    kernel = partial(_halfspace_kernel, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
-    return kernel
+    return partial(_halfspace_kernel, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
 
 
 def to_halfspace(
@@ -546,4 +537,4 @@ def to_halfspace(
         SceneError: The normal is zero or not finite, or the offset is not finite.
     """
     a, b, radius = _links(a, b, radius)
-    return _blocked(halfspace_kernel(normal, offset), a, b, radius)
+    return apply(halfspace_kernel(normal, offset), a, b, radius)
