@@ -1,11 +1,11 @@
-"""Geometry for figures: the arm's joint polyline and obstacle sections by the arm's plane.
-
-Shared by :mod:`previewctl.viz` (runs) and :mod:`previewctl.viz_map` (landscapes).
+"""Shared by the figures of :mod:`previewctl.viz` (runs) and :mod:`previewctl.viz_map` (landscapes):
+matplotlib on the Agg backend, the arm's joint polyline and obstacle sections by the arm's plane.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -17,6 +17,16 @@ from previewctl.scene import Box, Capsule, Cylinder, Halfspace, Obstacle, Sphere
 Array = NDArray[np.float64]
 Bounds = tuple[float, float, float, float]
 """``(xmin, xmax, ymin, ymax)`` of a top view [m]."""
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the Agg backend (imported on first use: importing previewctl stays cheap)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def arm_points(robot: Robot, Q: Array) -> Array:

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.drawing import arm_points, clip_halfplane, obstacle_section
+from previewctl.drawing import arm_points, clip_halfplane, obstacle_section, pyplot
 from previewctl.files import atomic_write, save_figure
 from previewctl.motion import Static
 from previewctl.robot import Robot
@@ -35,16 +35,6 @@ Array = NDArray[np.float64]
 _ARM_COLOUR_MAP = "viridis"
 _COLLISION_COLOUR = "#d62728"
 _OBSTACLE_COLOUR = "#7f7f7f"
-
-
-def _pyplot() -> Any:
-    """``matplotlib.pyplot`` on the Agg backend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def strobe_indices(steps: int, poses: int, extra: int | None = None) -> NDArray[np.int_]:
@@ -159,7 +149,7 @@ def strobe_plot(
     """
     if not _is_planar_run(scenario):
         return _strobe_3d(result, scenario, path, poses or scenario.outputs.strobe_poses)
-    plt = _pyplot()
+    plt = pyplot()
     hit = result.collision_index
     idx = strobe_indices(result.steps, poses or scenario.outputs.strobe_poses, hit)
     points = arm_points(scenario.robot, result.q[idx])
@@ -206,7 +196,7 @@ def strobe_plot(
 
 
 def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], poses: int) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     hit = result.collision_index
     idx = strobe_indices(result.steps, poses, hit)
     points = arm_points(scenario.robot, result.q[idx])
@@ -266,7 +256,7 @@ def _mark_collision(ax: Any, result: RunResult) -> None:
 
 def s_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
     """AMSIP ``S(t)`` and AMSI ``E(t)`` (PNG); returns ``path``."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4))
     try:
         ax.plot(result.t, result.amsi, color="#1f77b4", alpha=0.5, label="AMSI E")
@@ -287,7 +277,7 @@ def s_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
 
 def clearance_plot(result: RunResult, path: str | os.PathLike[str], *, influence_distance: float | None = None) -> Path:
     """Minimum distance per guarded link against time (PNG); returns ``path``."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4))
     try:
         finite = np.isfinite(result.link_distances)
@@ -313,7 +303,7 @@ def clearance_plot(result: RunResult, path: str | os.PathLike[str], *, influence
 
 def error_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
     """Hand error [mm] and joint-speed use ``max_j |q̇_j|/q̇max_j`` against time (PNG); returns ``path``."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
     try:
         top.plot(result.t, 1e3 * result.hand_error, color="#ff7f0e")
@@ -348,7 +338,7 @@ def animate_gif(result: RunResult, scenario: Scenario, path: str | os.PathLike[s
     from matplotlib.patches import Polygon
     from PIL import Image
 
-    plt = _pyplot()
+    plt = pyplot()
     span = float(result.t[-1] - result.t[0])
     count = int(min(max_frames, max(2, math.ceil(span * fps) + 1), result.steps))
     idx = np.unique(np.linspace(0, result.steps - 1, count).round().astype(int))

@@ -7,9 +7,9 @@ Matplotlib is imported inside the functions (Agg backend), so importing this mod
   (numbered circles) marked, next to the arm drawn at the best configuration among the obstacles.
   For a sampled landscape (more than two genes) the map is a scatter over the first two genes.
 * :func:`plot_surface` -- the 3-D surface of ``max over branches S(q1, q2)`` (grid landscapes).
-* :func:`obstacle_section` -- the section of an obstacle by the plane ``z = 0`` as a polygon: a sphere
-  or vertical cylinder gives a disc, a box a (rotated) rectangle, a capsule lying in the plane a
-  stadium, a half-space the shaded part of the view.
+
+The obstacles are drawn as their sections by the plane ``z = 0``
+(:func:`previewctl.drawing.obstacle_section`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.drawing import Bounds, arm_points, obstacle_section
+from previewctl.drawing import Bounds, arm_points, obstacle_section, pyplot
 from previewctl.errors import ConfigurationError
 from previewctl.files import save_figure
 from previewctl.robot import Robot
@@ -33,22 +33,10 @@ _OBSTACLE = "#8c8c8c"
 __all__ = ["plot_landscape", "plot_surface"]
 
 
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _colormap() -> Any:
     import matplotlib
 
     return matplotlib.colormaps["turbo"].with_extremes(under="black", bad="black")
-
-
-# ------------------------------------------------------------------------------------ geometry
 
 
 # ---------------------------------------------------------------------------------------- panels
@@ -149,7 +137,7 @@ def plot_landscape(
     Returns:
         The path written.
     """
-    plt = _pyplot()
+    plt = pyplot()
     from matplotlib.colors import Normalize
 
     scene = scene or Scene()
@@ -214,7 +202,7 @@ def plot_surface(landscape: Landscape, path: str | Path = "map_surface.png", *, 
     """
     if landscape.S_map is None or len(landscape.axes) != 2:
         raise ConfigurationError("plot_surface needs a grid landscape over two genes (e.g. planar4)")
-    plt = _pyplot()
+    plt = pyplot()
     from matplotlib.colors import Normalize
 
     S = landscape.S_map.max(axis=0)
