@@ -64,6 +64,7 @@ from numpy.typing import NDArray
 from previewctl.amsip import Evaluator
 from previewctl.avoidance import Kinematics, null_space_projector
 from previewctl.errors import ConfigurationError, PreviewctlError
+from previewctl.redundancy import wrap_angle
 from previewctl.robot import Robot
 from previewctl.scene import Scene
 from previewctl.trajectory import HandPath
@@ -736,9 +737,8 @@ class ReachController:
         red = self.redundancy
         genes_a, branch_a = red.genes_of(starts)
         genes_b, branch_b = red.genes_of(ends)
-        periodic = np.asarray(getattr(red, "periodic", np.zeros(genes_a.shape[1], bool)))
         delta = genes_b[None, :, :] - genes_a[:, None, :]
-        delta = np.where(periodic, (delta + np.pi) % (2 * np.pi) - np.pi, delta)
+        delta = np.where(red.periodic, wrap_angle(delta), delta)
         feasible = np.ones(delta.shape[:2], bool)
         pairs = np.argwhere(feasible)
         dtau = self.params.preview_time / (self.sweep_samples + 1)
@@ -818,7 +818,6 @@ class ReachController:
             n = len(self._route.nodes)
             targets, values = targets.copy(), values.copy()
             targets[:n], values[:n] = self._route.nodes, self._route.S
-        if self._route is not None:
             v = wrapped_difference(self.robot, q, self._route.lead) / self._sweep_step
         else:
             pulls = [k * wrapped_difference(self.robot, q, g) for k, g in zip(self.weights, targets, strict=True)]
