@@ -56,6 +56,7 @@ from numpy.typing import NDArray
 from previewctl.amsip import Evaluator
 from previewctl.errors import ConfigurationError
 from previewctl.robot import Robot
+from previewctl.validation import rotation_matrix
 from previewctl.validation import show as _show
 
 Array = NDArray[np.float64]
@@ -136,10 +137,8 @@ def parse_target(target: object, robot: Robot) -> Target:
     planar = position.shape == (2,)
     if planar:
         position = np.array([position[0], position[1], 0.0])
-    if rotation is not None and not (
-        np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-6) and np.linalg.det(rotation) > 0
-    ):
-        raise ConfigurationError(f"target rotation is not a rotation matrix: {_show(rotation.tolist())}")
+    if rotation is not None:
+        rotation = rotation_matrix(rotation, "target rotation", ConfigurationError)
     if robot.task == "pose" and rotation is None:
         raise ConfigurationError(
             f"robot {robot.name!r} has a pose task: give the target as (position (3,), rotation (3, 3)), "

@@ -231,6 +231,20 @@ def test_newton_q_seed_warm_start(panda: Robot) -> None:
     assert err.max() < NEWTON_TOL
 
 
+@pytest.mark.parametrize(
+    ("rotation", "fragments"),
+    [
+        (np.diag([1.0, 1.0, -1.0]), ["target rotation", "rotation matrix", "det = -1"]),
+        (2.0 * np.eye(3), ["target rotation", "rotation matrix", "max|R^T R - I| = 3"]),
+    ],
+)
+def test_pose_target_with_a_bad_rotation_is_refused(panda: Robot, rotation: np.ndarray, fragments: list[str]) -> None:
+    with pytest.raises(ConfigurationError) as info:
+        parse_target((np.array([0.4, 0.0, 0.4]), rotation), panda)
+    for fragment in fragments:
+        assert fragment in str(info.value)
+
+
 def test_newton_pose_task(request: pytest.FixtureRequest) -> None:
     robot = load_robot("panda", task="pose")
     red = redundancy_map(robot)
