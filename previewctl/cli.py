@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -214,7 +214,7 @@ def cmd_paper(args: argparse.Namespace) -> int:
     out = Path(args.out)
     bars: list[ProgressBar] = []
 
-    def progress(name: str):  # type: ignore[no-untyped-def]
+    def progress(name: str) -> Callable[[float, float], None]:
         if bars:
             bars[-1].close()
         bars.append(ProgressBar(f"{name:<9}"))
