@@ -14,9 +14,9 @@ import dataclasses
 
 import numpy as np
 
-from previewctl.paper import canonical_scenario, shipped_scenarios_dir, with_controller
-from previewctl.scenario import Scenario, load_scenario
-from previewctl.simulate import simulate
+from previewctl.sim.loop import simulate
+from previewctl.sim.paper import canonical_scenario, shipped_scenarios_dir, with_controller
+from previewctl.sim.scenario import Scenario, load_scenario
 
 FRAME_MS = 33.0
 

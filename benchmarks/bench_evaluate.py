@@ -16,9 +16,9 @@ import numpy as np
 import pinocchio as pin
 
 import previewctl as pc
-from previewctl.avoidance import unit_ball_volume
-from previewctl.motion import Static
-from previewctl.robot import Robot
+from previewctl.index.amsi import unit_ball_volume
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
 
 
 def naive_amsip(robot: Robot, scene: pc.Scene, Q: np.ndarray) -> np.ndarray:

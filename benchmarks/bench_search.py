@@ -23,12 +23,13 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from previewctl.amsip import Evaluator
-from previewctl.motion import Static
-from previewctl.redundancy import redundancy_map
-from previewctl.robot import load_robot
-from previewctl.scene import Box, Obstacle, Scene, Sphere
-from previewctl.search import OneStepGA, explore
+from previewctl.index.evaluator import Evaluator
+from previewctl.robot.load import load_robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
+from previewctl.search.explore import explore
+from previewctl.search.ga import OneStepGA
+from previewctl.search.maps import redundancy_map
 
 FRAME = 0.033  # [s]
 

@@ -21,10 +21,12 @@ import argparse
 
 import numpy as np
 
-from previewctl.amsip import Evaluator
-from previewctl.paper import canonical_scenario
-from previewctl.redundancy import redundancy_map, wrap_angle
-from previewctl.search import OneStepGA, explore
+from previewctl.index.evaluator import Evaluator
+from previewctl.search.explore import explore
+from previewctl.search.ga import OneStepGA
+from previewctl.search.maps import redundancy_map
+from previewctl.search.redundancy import wrap_angle
+from previewctl.sim.paper import canonical_scenario
 
 SCENARIO = canonical_scenario()
 PATH = np.asarray(SCENARIO.path.waypoints)

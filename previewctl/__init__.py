@@ -5,8 +5,6 @@ Evaluation": avoidance manipulability (AMSI), AMSIP on true Coal distances, a 1-
 redundancy space and single/multi-preview control, for any arm described by a URDF.
 """
 
-from previewctl.amsip import Evaluation, Evaluator, Potential, evaluate
-from previewctl.avoidance import AvoidanceResult, IndexParams, avoidance, unit_ball_volume
 from previewctl.errors import (
     ConfigurationError,
     PreviewctlError,
@@ -17,8 +15,13 @@ from previewctl.errors import (
     UnknownNameError,
     UnreachableTargetError,
 )
-from previewctl.robot import Robot, load_robot
-from previewctl.scene import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere, load_scene
+from previewctl.index.amsi import AvoidanceResult, IndexParams, avoidance, unit_ball_volume
+from previewctl.index.evaluator import Evaluation, Evaluator, evaluate
+from previewctl.index.potential import Potential
+from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
+from previewctl.scene.file import load_scene
+from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 
 __version__ = "0.1.0"
 

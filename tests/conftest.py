@@ -10,7 +10,7 @@ import pytest
 from hypothesis import strategies as st
 
 import previewctl
-from previewctl.robot import Robot
+from previewctl.robot.model import Robot
 
 # A hypothesis ``draw`` function, or a seeded numpy generator.
 Source = np.random.Generator | Callable[[st.SearchStrategy[Any]], Any]

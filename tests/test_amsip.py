@@ -23,8 +23,8 @@ from previewctl import (
     avoidance,
     evaluate,
 )
-from previewctl.motion import ConstantVelocity, Static
-from previewctl.robot import Robot
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import ConstantVelocity, Static
 
 Array = NDArray[np.float64]
 LINK, RADIUS = 0.75, 0.03  # planar4 link length and capsule radius [m]

@@ -14,8 +14,8 @@ from numpy.typing import NDArray
 
 import previewctl
 from previewctl import IndexParams, Obstacle, Scene, avoidance, evaluate, unit_ball_volume
-from previewctl.motion import ConstantVelocity, Static
-from previewctl.robot import Robot
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import ConstantVelocity, Static
 
 Array = NDArray[np.float64]
 LINK = 0.75  # planar4 link length [m]
@@ -371,7 +371,7 @@ def test_planar_path_control_point_at_base(planar4: Robot) -> None:
 @pytest.mark.parametrize("name", ["panda", "kinova", "planar4"])
 def test_frame_kinematics_equals_pinocchio(name: str, request: pytest.FixtureRequest) -> None:
     """Every frame's placement and world-aligned Jacobian, assembled for the batch, equal Pinocchio's own."""
-    from previewctl.avoidance import FrameKinematics
+    from previewctl.kinematics import FrameKinematics
 
     robot: Robot = request.getfixturevalue(name)
     model = robot.model
@@ -391,7 +391,7 @@ def test_frame_kinematics_equals_pinocchio(name: str, request: pytest.FixtureReq
 @pytest.mark.parametrize("m", [1, 2, 3, 6])
 def test_gram_pseudo_inverse_against_pinv(m: int) -> None:
     """(J J^T)^+ equals numpy's pinv for well-conditioned, ill-conditioned and rank-deficient J."""
-    from previewctl.avoidance import gram_pseudo_inverse
+    from previewctl.index.amsi import gram_pseudo_inverse
 
     rng = np.random.default_rng(m)
     stacks = []

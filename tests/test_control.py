@@ -10,30 +10,25 @@ import pinocchio as pin
 import pytest
 from numpy.typing import NDArray
 
-from previewctl.amsip import Evaluator
-from previewctl.avoidance import kinematics
-from previewctl.control import (
-    ControllerParams,
-    ControllerSpec,
-    ControlState,
-    GradientController,
-    PreviewController,
-    ReachController,
-    TrackingController,
-    apply_limits,
-    check_preview_weights,
-    damped_pseudo_inverse,
-    make_controller,
-    wrapped_difference,
-)
-from previewctl.errors import ConfigurationError, PreviewctlError
-from previewctl.motion import Static
-from previewctl.redundancy import redundancy_map
-from previewctl.robot import Robot, load_robot
-from previewctl.scenario import Scenario, scenario_from_dict
-from previewctl.scene import Obstacle, Scene, Sphere, scene_from_dict
-from previewctl.simulate import simulate
-from previewctl.trajectory import HandPath
+from previewctl.control.base import ControlState
+from previewctl.control.factory import make_controller
+from previewctl.control.gradient import GradientController
+from previewctl.control.params import ControllerParams, ControllerSpec, check_preview_weights
+from previewctl.control.preview import PreviewController, wrapped_difference
+from previewctl.control.reach import ReachController
+from previewctl.control.tracking import TrackingController, apply_limits, damped_pseudo_inverse
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.kinematics import kinematics
+from previewctl.path import HandPath
+from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
+from previewctl.scene.file import scene_from_dict
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.maps import redundancy_map
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, scenario_from_dict
 
 Array = NDArray[np.float64]
 TRACKING_TOLERANCE = 1e-3
@@ -412,14 +407,6 @@ def test_make_controller_builds_reach_with_real_searches(planar: Robot) -> None:
     controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar,
                                  Evaluator(planar), np.random.default_rng(0))
     assert isinstance(controller, ReachController) and len(controller.searches) == 3
-
-
-def test_missing_search_module_is_a_clear_error(planar: Robot, monkeypatch: pytest.MonkeyPatch) -> None:
-    import sys
-
-    monkeypatch.setitem(sys.modules, "previewctl.search", None)  # import fails
-    with pytest.raises(PreviewctlError, match="1-step GA"):
-        make_controller(ControllerSpec("multi"), planar, Evaluator(planar), np.random.default_rng(0))
 
 
 def test_pose_task_tracks_orientation() -> None:

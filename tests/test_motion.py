@@ -15,7 +15,7 @@ from hypothesis.extra.numpy import arrays
 from numpy.typing import NDArray
 
 from previewctl.errors import PreviewctlError, SceneError
-from previewctl.motion import (
+from previewctl.scene.motion import (
     MOTION_TYPES,
     ConstantVelocity,
     Motion,

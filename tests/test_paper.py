@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from previewctl.avoidance import kinematics
-from previewctl.cli import main
-from previewctl.paper import PAPER_CONTROLLERS, canonical_scenario, with_controller
-from previewctl.simulate import simulate
+from previewctl.cli.main import main
+from previewctl.kinematics import kinematics
+from previewctl.sim.loop import simulate
+from previewctl.sim.paper import PAPER_CONTROLLERS, canonical_scenario, with_controller
 
 
 def test_canonical_scene_matches_the_paper_numbers() -> None:

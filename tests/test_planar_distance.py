@@ -17,8 +17,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from previewctl import planar_distance as pd
 from previewctl.errors import ConfigurationError, SceneError
+from previewctl.planar import distance as pd
 
 FloatArray = npt.NDArray[np.float64]
 

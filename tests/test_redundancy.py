@@ -12,19 +12,17 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from previewctl.amsip import Evaluator
 from previewctl.errors import ConfigurationError
-from previewctl.motion import Static
-from previewctl.redundancy import (
-    NewtonRedundancy,
-    PlanarRedundancy,
-    parse_target,
-    redundancy_map,
-    score,
-    wrap_angle,
-)
-from previewctl.robot import Robot, load_robot, shipped_robots_dir
-from previewctl.scene import Box, Obstacle, Scene, Sphere
+from previewctl.index.evaluator import Evaluator
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.load import load_robot, shipped_robots_dir
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
+from previewctl.search.maps import redundancy_map
+from previewctl.search.newton import NewtonRedundancy
+from previewctl.search.redundancy import parse_target, wrap_angle
+from previewctl.search.scoring import score
 
 PLANAR_TOL = 1e-9  # [m]
 NEWTON_TOL = 1e-4  # [m], NewtonRedundancy's default tolerance

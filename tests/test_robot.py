@@ -18,6 +18,7 @@ import pinocchio as pin
 import pytest
 
 import previewctl
+import previewctl.scene.motion
 from previewctl import (
     ConfigurationError,
     PreviewctlError,
@@ -29,7 +30,8 @@ from previewctl import (
     load_robot,
     load_scene,
 )
-from previewctl.robot import Robot, shipped_robot_names, shipped_robots_dir
+from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
+from previewctl.robot.model import Robot
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -139,7 +141,7 @@ def test_geometry_choice(planar4: Robot, panda: Robot, panda_mesh: Robot) -> Non
 @pytest.mark.parametrize("shape", [(0.05, 0.02, 0.3), (0.1, 0.1, 0.1), (0.2, 0.01, 0.01)])
 def test_enclosing_capsule_contains_the_points_tightly(shape: tuple[float, float, float]) -> None:
     """Long, round and flat point clouds: every point inside, one on the surface, a proper rotation."""
-    from previewctl.robot import enclosing_capsule
+    from previewctl.robot.geometry import enclosing_capsule
 
     rng = np.random.default_rng(7)
     rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
@@ -492,10 +494,10 @@ position = [-1.0, 0.6, 0.0]
     boxes = previewctl.Scene(
         (
             previewctl.Obstacle(
-                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
+                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
             ),
             previewctl.Obstacle(
-                "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.motion.Static(np.array([-1.0, 0.6, 0.0]))
+                "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.scene.motion.Static(np.array([-1.0, 0.6, 0.0]))
             ),
         )
     )
@@ -552,7 +554,7 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
         archive.extractall(tmp_path / "site")
     script = (
         "import sys; sys.path.insert(0, sys.argv[1]);"
-        "import previewctl.robot as r;"
+        "import previewctl.robot.load as r;"
         "robot = r.load_robot('planar4');"
         "print(r.shipped_robots_dir()); print(robot.nq)"
     )

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from previewctl.cli import main
+from previewctl.cli.main import main
 from previewctl.errors import PreviewctlError, ScenarioError
-from previewctl.scenario import load_scenario, scenario_from_dict
+from previewctl.sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

@@ -8,14 +8,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from previewctl.amsip import Evaluator
-from previewctl.cli import main
+from previewctl.cli.main import main
 from previewctl.errors import ConfigurationError, UnreachableTargetError
-from previewctl.motion import Static
-from previewctl.redundancy import PlanarRedundancy, joint_angles, redundancy_map, wrap_angle
-from previewctl.robot import Robot, load_robot
-from previewctl.scene import Box, Obstacle, Scene, Sphere
-from previewctl.search import Landscape, OneStepGA, explore, halton, joint_periodic, step_together
+from previewctl.index.evaluator import Evaluator
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
+from previewctl.search.explore import Landscape, explore
+from previewctl.search.ga import OneStepGA, step_together
+from previewctl.search.genes import halton, joint_periodic
+from previewctl.search.maps import joint_angles, redundancy_map
+from previewctl.search.redundancy import wrap_angle
 
 # The paper's hand positions A-F (section 7: A = (10 cm, 140 cm), five 75 cm segments).
 PATH = np.array([[0.10, 1.40], [0.85, 1.40], [0.85, 0.65], [1.60, 0.65], [1.60, -0.10], [2.35, -0.10]])
@@ -115,13 +120,13 @@ def test_peaks_without_separation_are_the_best_maxima_once_each(planar4: Robot, 
 
 
 def test_distinct_walks_blocks_like_one_pass() -> None:
-    from previewctl.search import _distinct
+    from previewctl.search.genes import distinct
 
     angles = np.random.default_rng(0).uniform(-np.pi, np.pi, (300, 4))
     periodic = np.array([True, True, False, False])
-    one_pass = _distinct(angles, periodic, 2.0, 40, block=300)
+    one_pass = distinct(angles, periodic, 2.0, 40, block=300)
     assert len(one_pass) > 10
-    assert _distinct(angles, periodic, 2.0, 40, block=7) == one_pass
+    assert distinct(angles, periodic, 2.0, 40, block=7) == one_pass
 
 
 def test_explore_unreachable_target_raises(planar4: Robot, evaluator: Evaluator) -> None:

@@ -13,21 +13,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from previewctl.cli import main
+from previewctl.cli.main import main
 from previewctl.errors import PreviewctlError
-from previewctl.robot import Robot
-from previewctl.scenario import Scenario, Timing, scenario_from_dict
-from previewctl.simulate import (
-    NPZ_NAME,
-    SUMMARY_NAME,
-    RunResult,
-    frame_index,
-    load_run,
-    load_summary,
-    save_run,
-    simulate,
-)
-from previewctl.viz import make_figures, obstacle_outline, strobe_plot
+from previewctl.robot.model import Robot
+from previewctl.sim.log import NPZ_NAME, SUMMARY_NAME, RunResult, load_run, load_summary, save_run
+from previewctl.sim.loop import frame_index, simulate
+from previewctl.sim.scenario import Scenario, Timing, scenario_from_dict
+from previewctl.viz.figures import make_figures, obstacle_outline, strobe_plot
 
 Q0 = [0.6, 1.0, -1.2, -1.0]
 START = [1.9069, 1.0417]
@@ -212,7 +204,7 @@ def test_figures_and_gif(crash: Scenario, tmp_path: Path) -> None:
 
 
 def test_obstacle_outlines_in_the_plane(crash: Scenario) -> None:
-    from previewctl.scene import scene_from_dict
+    from previewctl.scene.file import scene_from_dict
 
     scene = scene_from_dict([
         {"name": "box", "shape": "box", "size": [0.2, 0.4, 1.0], "position": [1, 2, 0], "rpy": [0, 0, np.pi / 2]},
@@ -239,7 +231,7 @@ def test_spatial_strobe(tmp_path: Path) -> None:
         "timing": {"duration": 0.3},
     }
     scenario = scenario_from_dict(doc)
-    from previewctl.amsip import Evaluator
+    from previewctl.index.evaluator import Evaluator
 
     run = simulate(scenario, exact_evaluator=Evaluator(scenario.robot, scenario.scene))
     path = strobe_plot(run, scenario, tmp_path / "strobe.png", poses=4)

@@ -13,7 +13,7 @@ from hypothesis.extra.numpy import arrays
 from numpy.typing import NDArray
 
 from previewctl.errors import PreviewctlError, TrajectoryError
-from previewctl.trajectory import HandPath
+from previewctl.path import HandPath
 
 L_SHAPE = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 4.0]])  # lengths 3 and 4, total 7 [m]
 SPATIAL = np.array([[0.1, 0.2, 0.3], [0.4, 0.2, 0.3], [0.4, -0.2, 0.5], [0.0, 0.0, 0.0]])

@@ -1,0 +1,73 @@
+"""TODO docstring: cli.index."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from previewctl.cli.common import finite_or_none, parse_vector
+from previewctl.index.amsi import IndexParams, avoidance
+from previewctl.index.evaluator import Evaluator
+from previewctl.index.potential import Potential
+from previewctl.robot.load import load_robot
+from previewctl.scene.file import load_scene
+from previewctl.scene.shapes import Scene
+
+
+def cmd_index(args: argparse.Namespace) -> int:
+    """Print the per-point avoidance table and AMSIP for one configuration."""
+
+    robot = load_robot(args.robot, geometry=args.geometry)
+    q = parse_vector(args.q, "q")
+    if args.degrees:
+        q = np.radians(q)
+    scene = load_scene(args.scene) if args.scene else Scene()
+    index = IndexParams(length_unit=args.length_unit)
+    potential = Potential(influence_distance=args.influence)
+    result = avoidance(robot, q, index)
+    ev = Evaluator(robot, scene, index, potential)(q, args.time)
+    report: dict[str, Any] = {
+        "robot": robot.name,
+        "q": [float(v) for v in q],
+        "tip_position": [float(v) for v in ev.tip_position[0]],
+        "control_points": [
+            {
+                "joint": name,
+                "rank": int(result.ranks[i]),
+                "structural_rank": int(result.structural_ranks[i]),
+                "singular_values": [float(s) for s in result.singular_values[i]],
+                "volume": float(result.volumes[i]),
+            }
+            for i, name in enumerate(robot.control_points)
+        ],
+        "links": [
+            {"link": name, "min_distance": finite_or_none(ev.link_distances[0, i])}
+            for i, name in enumerate(robot.guarded_links)
+        ],
+        "amsi": float(ev.amsi[0]),
+        "U": float(ev.U[0]),
+        "S": float(ev.S[0]),
+        "min_distance": finite_or_none(ev.min_distance[0]),
+        "collision": bool(ev.collision[0]),
+        "length_unit_m": index.length_unit,
+    }
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    hand = np.round(ev.tip_position[0], 4)
+    print(f"robot {robot.name}  q = {np.array2string(q, precision=4)} [rad]  hand at {hand} [m]")
+    print(f"{'control point':<22}{'rank':>5}{'p':>3}  {'singular values [m/rad]':<30}{'V_i [m^p]':>12}")
+    for row in report["control_points"]:
+        sv = ", ".join(f"{s:.4f}" for s in row["singular_values"])
+        print(f"{row['joint']:<22}{row['rank']:>5}{row['structural_rank']:>3}  {sv:<30}{row['volume']:>12.5f}")
+    print(f"{'guarded link':<22}{'min distance [m]':>18}")
+    for row in report["links"]:
+        d = row["min_distance"]
+        print(f"{row['link']:<22}{'-' if d is None else f'{d:.4f}':>18}")
+    unit = "cm" if np.isclose(index.length_unit, 0.01) else f"{index.length_unit} m"
+    print(f"AMSI E = {report['amsi']:.2f} (unit {unit})   U = {report['U']:.2f}   S = {report['S']:.2f}"
+          f"   {'COLLISION' if report['collision'] else 'collision-free'}")
+    return 0

@@ -1,0 +1,53 @@
+"""TODO docstring: cli.run."""
+
+from __future__ import annotations
+
+import argparse
+
+from previewctl.cli.common import ProgressBar
+from previewctl.sim.log import save_run
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import load_scenario
+from previewctl.viz.figures import make_figures
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
+    from pathlib import Path
+
+
+    scenario = load_scenario(args.scenario)
+    name = args.controller or scenario.controller.name
+    out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"
+    bar = ProgressBar()
+    try:
+        result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
+                          seed=args.seed)
+    finally:
+        bar.close()
+    summary = result.summary()
+    npz_path, json_path = save_run(result, out)
+    figures = make_figures(result, scenario, out, gif=False if args.no_gif else None)
+
+    def metre(value: float | None) -> str:
+        return "-" if value is None else f"{value * 1e3:.2f} mm"
+
+    collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
+                 if summary["collided"] else "yes")
+    rows = [
+        ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
+        ("controller", summary["controller"]),
+        ("collision-free", collision),
+        ("max hand error", metre(summary["max_hand_error"])),
+        ("min clearance", metre(summary["min_clearance"])),
+        ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
+        ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
+        ("cycle time median / max",
+         f"{summary['cycle_time_median'] * 1e3:.2f} / {summary['cycle_time_max'] * 1e3:.2f} ms"),
+    ]
+    for label, value in rows:
+        print(f"{label:<26}{value}")
+    print(f"{'written':<26}{npz_path}, {json_path}")
+    for figure in figures:
+        print(f"{'':<26}{figure}")
+    return 0

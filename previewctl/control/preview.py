@@ -1,0 +1,151 @@
+"""TODO docstring: control.preview."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import pinocchio as pin
+
+from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.gradient import GradientController
+from previewctl.control.params import ControllerParams
+from previewctl.control.tracking import gain_vector, track
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.search.ga import OneStepGA, step_together
+from previewctl.types import Array
+
+
+@runtime_checkable
+class CandidateLike(Protocol):
+    """What a search returns: a configuration ``q`` ``(nq,)`` and its AMSIP ``S``."""
+
+    q: Array
+    S: float
+
+
+@runtime_checkable
+class SearchLike(Protocol):
+    """The interface of :class:`previewctl.search.OneStepGA` that the preview controller uses."""
+
+    def step(self, target: Array, t: float) -> Any:
+        """Run one generation against hand target ``target`` at time ``t`` [s]; return the best candidate."""
+        ...
+
+    def peaks(self) -> tuple[Any, ...]:
+        """The distinct peaks currently held."""
+        ...
+
+    def seed(self, q: Array) -> None:
+        """Put configuration ``q`` into the population."""
+        ...
+
+
+def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequence[float]) -> list[Any]:
+    """One generation of ``searches[i]`` toward the hand target ``path.position(times[i])`` at
+    ``times[i]`` [s]; their best candidates. 1-step GAs run through
+    :func:`previewctl.search.step_together` (same result, one shared Newton projection)."""
+    targets = [np.asarray(path.position(t_i), dtype=float) for t_i in times]
+
+    if all(isinstance(search, OneStepGA) for search in searches):
+        return step_together([s for s in searches if isinstance(s, OneStepGA)], targets, times)
+    return [search.step(target, t_i) for search, target, t_i in zip(searches, targets, times, strict=True)]
+
+
+def wrapped_difference(robot: Robot, q: Array, target: Array) -> Array:
+    """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more."""
+    diff: Array = np.array(pin.difference(robot.model, q, target), dtype=np.float64)
+    model = robot.model
+    lo, hi = robot.lower_limits, robot.upper_limits
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq == 1 and joint.nv == 1 and joint.shortname().startswith(("JointModelR", "JointModelRevolute")):
+            iq, iv = joint.idx_q, joint.idx_v
+            if hi[iq] - lo[iq] >= 2 * np.pi - 1e-9:
+                diff[iv] = (diff[iv] + np.pi) % (2 * np.pi) - np.pi
+    return diff
+
+
+class PreviewController:
+    """``single`` (eq. 20) and ``multi`` (eq. 21) preview control.
+
+    One search (an imaginary arm) per preview time ``t_i* = t + i t̃``, ``i = 1..p``. When a camera
+    frame is due (and at the first call), each search runs one generation against the hand target
+    ``r_d(t_i*)`` and the scene at ``t_i*``; its best candidate is the target ``q̃_i``. Between frames
+    the last targets are kept. Then ``v = K_v Σ k_i (q̃_i ⊖ q)`` drives eq. 19.
+
+    Args:
+        robot: the arm.
+        params: gains and weights.
+        mode: ``"single"`` or ``"multi"`` (``"reach"`` is :class:`ReachController`).
+        searches: one search per preview time (``p = 1`` for single, ``len(weights)`` for multi),
+            each with ``step(target, t)``, ``peaks()`` and ``seed(q)``.
+        evaluator: the AMSIP evaluator of the local term (needed with ``params.with_gradient``).
+
+    Raises:
+        ConfigurationError: wrong number of searches, unknown mode, ``with_gradient`` without evaluator.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        params: ControllerParams,
+        mode: str,
+        searches: Sequence[SearchLike],
+        evaluator: Evaluator | None = None,
+    ) -> None:
+        if mode not in ("single", "multi"):
+            raise ConfigurationError(f"unknown preview mode {mode!r}; valid: single, multi, reach")
+        self.name = mode
+        self.robot, self.params, self.mode = robot, params, mode
+        self.weights = np.array(params.preview_weights(mode))
+        if len(searches) != len(self.weights):
+            raise ConfigurationError(
+                f"{mode} preview control needs {len(self.weights)} searches (one per preview time), got {len(searches)}"
+            )
+        self.searches = tuple(searches)
+        self._gain = gain_vector(params.gain, robot.nv, "gain")
+        self._local: GradientController | None = None
+        if params.with_gradient:
+            if evaluator is None:
+                raise ConfigurationError("with_gradient needs the AMSIP evaluator: pass evaluator=")
+            self._local = GradientController(robot, evaluator, params)
+        self._targets: Array | None = None
+        self._target_amsip: Array | None = None
+
+    @property
+    def preview_times(self) -> Array:
+        """Offsets ``i t̃`` [s] of the preview times, ``(p,)``."""
+        return np.asarray(self.params.preview_time * np.arange(1, len(self.weights) + 1), dtype=np.float64)
+
+    def _update_targets(self, t: float, q: Array, path: HandPath) -> tuple[Array, Array]:
+        if self._targets is None:
+            for search in self.searches:
+                search.seed(np.array(q, dtype=float))
+        targets, values = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
+        times = [t + float(offset) for offset in self.preview_times]
+        for i, best in enumerate(step_searches(self.searches, path, times)):
+            targets[i], values[i] = np.asarray(best.q, dtype=float), float(best.S)
+        self._targets, self._target_amsip = targets, values
+        return targets, values
+
+    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
+        """Joint velocity [rad/s] for time ``t`` [s]."""
+        if state.frame_due or self._targets is None or self._target_amsip is None:
+            targets, values = self._update_targets(t, q, state.path)
+        else:
+            targets, values = self._targets, self._target_amsip
+        direction = np.zeros(self.robot.nv)
+        for k, target in zip(self.weights, targets, strict=True):
+            direction += k * wrapped_difference(self.robot, q, target)
+        v = self._gain * direction
+        if self._local is not None:
+            v = v + self._local.null_space_input(q, t)
+        return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())
+
+
+SearchFactory = Callable[[int, np.random.Generator], SearchLike]

@@ -1,0 +1,195 @@
+"""TODO docstring: control.reach."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.params import ControllerParams
+from previewctl.control.preview import SearchLike, step_searches, wrapped_difference
+from previewctl.control.tracking import effective_velocity_limits, gain_vector, track
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.search.redundancy import wrap_angle
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class Route:
+    """The chosen sequence of peaks of :class:`ReachController`, one per preview time.
+
+    Attributes:
+        nodes: ``(len, nq)`` configurations, level 1 first.
+        S: ``(len,)`` their AMSIP values.
+        complete: whether it reaches the last preview time (otherwise the longest feasible prefix).
+        lead: ``(nq,)`` the planned configuration one sweep step ahead on the move to ``nodes[0]``.
+    """
+
+    nodes: Array
+    S: Array
+    complete: bool
+    lead: Array
+
+
+class ReachController:
+    """``reach``: the reachability sequence of the paper's Fig. 3.
+
+    At each camera frame every imaginary arm ``i`` (at ``t_i* = t + i t̃``) runs one GA generation;
+    its top-K distinct peaks with ``S > 0`` are the nodes of level ``i`` (a negative future node is
+    dropped, and every route through it with it). The current configuration is level 0. An edge
+    from node ``a`` (level ``i-1``, time ``t_a``) to node ``b`` (level ``i``, time ``t_a + t̃``) is
+    *feasible* when the arm can move from one to the other while its hand follows the path:
+
+    1. ``sweep_samples`` intermediate times ``tau`` split the move; at each, the genes are
+       interpolated between ``a``'s and ``b``'s (angles the short way round) and solved onto the
+       hand target ``r_d(tau)`` by the redundancy map; the elbow branch switches from ``a``'s to
+       ``b``'s at the middle sample (a switch is only continuous through a stretched elbow, so a
+       switch elsewhere fails the speed test below);
+    2. every such configuration is reachable and collision-free (``S >= 0``) with the scene at
+       ``tau``;
+    3. consecutive configurations differ by at most ``v_max_j (tau_k+1 - tau_k) velocity_scale``
+       per joint (the joint speed limits).
+
+    The route (one node per level) with the best total S over feasible edges is found by dynamic
+    programming (Viterbi); if no route reaches the last level, the one reaching furthest is taken.
+    The arm then follows the planned move toward the route's first node: ``v = (q_lead ⊖ q) / dtau``,
+    ``q_lead`` being the move's first sample (``dtau = t̃ / (sweep_samples + 1)`` ahead), re-planned
+    at every frame (receding horizon). If not even level 1 is reachable, eq. 21 on the imaginary
+    arms' best candidates is used, as in ``multi``.
+
+    Unlike plain eq. 21, whose targets are each time's own best (possibly on different, mutually
+    unreachable peaks) and whose null-space pull toward a configuration on the other elbow branch
+    does not lead through the stretched elbow, the arm here follows a move that was checked to be
+    on the path, collision-free and within the speed limits.
+    """
+
+    name = "reach"
+
+    def __init__(
+        self,
+        robot: Robot,
+        params: ControllerParams,
+        evaluator: Evaluator,
+        searches: Sequence[SearchLike],
+        redundancy: Any,
+        *,
+        sweep_samples: int = 6,
+    ) -> None:
+        self.robot, self.params, self.evaluator, self.redundancy = robot, params, evaluator, redundancy
+        self.weights = np.array(params.preview_weights("multi"))
+        if len(searches) != len(self.weights):
+            raise ConfigurationError(
+                f"reach needs {len(self.weights)} searches (one per preview time), got {len(searches)}"
+            )
+        self.searches = tuple(searches)
+        self.sweep_samples = sweep_samples
+        self._gain = gain_vector(params.gain, robot.nv, "gain")
+        self._speed = effective_velocity_limits(robot, params.velocity_scale)
+        self._sweep_step = params.preview_time / (sweep_samples + 1)
+        self._route: Route | None = None
+        self._fallback: tuple[Array, Array] | None = None
+
+    @property
+    def route(self) -> Route | None:
+        """The route chosen at the last frame (``None`` before the first or when none was feasible)."""
+        return self._route
+
+    def _edges(self, starts: Array, ends: Array, t0: float, path: HandPath) -> tuple[NDArray[np.bool_], Array]:
+        """Feasibility ``(len(starts), len(ends))`` of the moves between two levels starting at ``t0`` [s],
+        and each move's first sample ``(len(starts), len(ends), nq)`` (its configuration at ``t0 + dtau``)."""
+        red = self.redundancy
+        genes_a, branch_a = red.genes_of(starts)
+        genes_b, branch_b = red.genes_of(ends)
+        delta = genes_b[None, :, :] - genes_a[:, None, :]
+        delta = np.where(red.periodic, wrap_angle(delta), delta)
+        feasible = np.ones(delta.shape[:2], bool)
+        pairs = np.argwhere(feasible)
+        dtau = self.params.preview_time / (self.sweep_samples + 1)
+        previous = starts[pairs[:, 0]]
+        ok = np.ones(len(pairs), bool)
+        first = np.empty((len(starts), len(ends), starts.shape[1]))
+        for k in range(1, self.sweep_samples + 2):
+            tau = t0 + k * dtau
+            genes = genes_a[pairs[:, 0]] + (k / (self.sweep_samples + 1)) * delta[pairs[:, 0], pairs[:, 1]]
+            if k == self.sweep_samples + 1:
+                Q, reachable = ends[pairs[:, 1]], np.ones(len(pairs), bool)
+            else:
+                branch = branch_a[pairs[:, 0]] if 2 * k <= self.sweep_samples + 1 else branch_b[pairs[:, 1]]
+                Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float), previous)
+                ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
+            steps = np.array([wrapped_difference(self.robot, a, b) for a, b in zip(previous, Q, strict=True)])
+            ok &= np.all(np.abs(steps) <= self._speed * dtau, axis=1)
+            if k == 1:
+                first[pairs[:, 0], pairs[:, 1]] = Q
+            previous = Q
+        feasible[pairs[~ok, 0], pairs[~ok, 1]] = False
+        return feasible, first
+
+    def _choose(self, t: float, q: Array, levels: list[tuple[Array, Array]], path: HandPath) -> Route | None:
+        """Viterbi over the levels: the feasible route with the best total S (or the longest prefix)."""
+        total = np.zeros(1)
+        nodes_prev = q[None, :]
+        back: list[NDArray[np.int_]] = []
+        reached: list[Array] = []
+        for i, (nodes, values) in enumerate(levels):
+            if not len(nodes):
+                break
+            feasible, first = self._edges(nodes_prev, nodes, t + i * self.params.preview_time, path)
+            if i == 0:
+                leads = first[0]
+            score = np.where(feasible, total[:, None] + values[None, :], -np.inf)
+            best_prev = score.argmax(axis=0)
+            best = score.max(axis=0)
+            if not np.isfinite(best).any():
+                break
+            back.append(best_prev)
+            reached.append(best)
+            total, nodes_prev = best, nodes
+        if not back:
+            return None
+        last = int(np.argmax(reached[-1]))
+        chain = [last]
+        for pointers in reversed(back[1:]):
+            chain.append(int(pointers[chain[-1]]))
+        chain.reverse()
+        nodes = np.stack([levels[i][0][k] for i, k in enumerate(chain)])
+        S = np.array([levels[i][1][k] for i, k in enumerate(chain)])
+        return Route(nodes, S, complete=len(chain) == len(levels), lead=leads[chain[0]])
+
+    def _update(self, t: float, q: Array, path: HandPath) -> tuple[Array, Array]:
+        if self._fallback is None:
+            for search in self.searches:
+                search.seed(np.array(q, dtype=float))
+        levels: list[tuple[Array, Array]] = []
+        best_q, best_S = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
+        times = [t + (i + 1) * self.params.preview_time for i in range(len(self.searches))]
+        for i, (search, best) in enumerate(zip(self.searches, step_searches(self.searches, path, times), strict=True)):
+            best_q[i], best_S[i] = np.asarray(best.q, dtype=float), float(best.S)
+            peaks = [c for c in search.peaks() if c.S > 0]
+            levels.append((np.array([c.q for c in peaks]).reshape(-1, self.robot.nq), np.array([c.S for c in peaks])))
+        self._fallback = (best_q, best_S)
+        self._route = self._choose(t, q, levels, path)
+        return self._fallback
+
+    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
+        """Joint velocity [rad/s] for time ``t`` [s]."""
+        if state.frame_due or self._fallback is None:
+            targets, values = self._update(t, q, state.path)
+        else:
+            targets, values = self._fallback
+        if self._route is not None:
+            n = len(self._route.nodes)
+            targets, values = targets.copy(), values.copy()
+            targets[:n], values[:n] = self._route.nodes, self._route.S
+            v = wrapped_difference(self.robot, q, self._route.lead) / self._sweep_step
+        else:
+            pulls = [k * wrapped_difference(self.robot, q, g) for k, g in zip(self.weights, targets, strict=True)]
+            v = self._gain * np.sum(pulls, axis=0)
+        return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())

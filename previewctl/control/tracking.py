@@ -1,0 +1,213 @@
+"""TODO docstring: control.tracking."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ConfigurationError
+from previewctl.index.amsi import null_space_projector
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.types import Array
+
+# ------------------------------------------------------------------------------------ eq. 19
+
+
+def damped_pseudo_inverse(J: Array, damping: float, threshold: float) -> tuple[Array, float]:
+    """Damped least-squares inverse ``J#`` of ``J`` ``(m, n)`` and the damping ``λ`` used.
+
+    ``λ² = (1 − (σ_min/ε)²) λ_max²`` when ``σ_min < ε``, else 0 (see the module docstring).
+
+    Args:
+        J: the Jacobian.
+        damping: ``λ_max`` [same unit as J's singular values].
+        threshold: ``ε`` > 0.
+
+    Returns:
+        ``(J#, λ)``: ``J#`` of shape ``(n, m)``.
+    """
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    smin = float(s[-1]) if s.size else 0.0
+    lam2 = damping**2 * (1.0 - (smin / threshold) ** 2) if smin < threshold else 0.0
+    denom = s**2 + lam2
+    inv = np.divide(s, denom, out=np.zeros_like(s), where=denom > 0)
+    return (Vt.T * inv) @ U.T, math.sqrt(lam2)
+
+
+def joint_velocity_bounds(robot: Robot, q: Array, dt: float) -> tuple[Array, Array]:
+    """Per-velocity-coordinate bounds that keep ``q + q̇ dt`` within the position limits.
+
+    Joints with ``nq ≠ nv`` (continuous) or infinite limits get ``(−inf, inf)``.
+
+    Args:
+        robot: the arm.
+        q: configuration ``(nq,)``.
+        dt: control period [s].
+
+    Returns:
+        ``(low, high)`` [rad/s], each ``(nv,)``.
+    """
+    low, high = np.full(robot.nv, -np.inf), np.full(robot.nv, np.inf)
+    lo, hi = robot.lower_limits, robot.upper_limits
+    model = robot.model
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq != joint.nv:
+            continue
+        for k in range(joint.nq):
+            iq, iv = joint.idx_q + k, joint.idx_v + k
+            if np.isfinite(lo[iq]):
+                low[iv] = (lo[iq] - q[iq]) / dt
+            if np.isfinite(hi[iq]):
+                high[iv] = (hi[iq] - q[iq]) / dt
+    return low, high
+
+
+def effective_velocity_limits(robot: Robot, scale: float = 1.0) -> Array:
+    """``scale`` × the URDF speed limits [rad/s], ``inf`` where the URDF gives none (≤ 0 or non-finite)."""
+    limits = robot.velocity_limits
+    return np.where(np.isfinite(limits) & (limits > 0), limits * scale, np.inf)
+
+
+def apply_limits(
+    robot: Robot, q: Array, qdot: Array, dt: float, velocity_scale: float = 1.0
+) -> tuple[Array, float, bool]:
+    """Enforce position limits (per-joint clamp) then velocity limits (uniform scaling).
+
+    Args:
+        robot: the arm.
+        q: configuration ``(nq,)``.
+        qdot: requested joint velocity ``(nv,)`` [rad/s] (not modified).
+        dt: control period [s].
+        velocity_scale: fraction of the URDF speed limits allowed.
+
+    Returns:
+        ``(q̇, s, clamped)``: the limited velocity, the scaling factor ``s`` in (0, 1] and whether a
+        position bound was active.
+    """
+    low, high = joint_velocity_bounds(robot, q, dt)
+    clamped_qdot = np.clip(qdot, low, high)
+    clamped = bool(np.any(clamped_qdot != qdot))
+    limits = effective_velocity_limits(robot, velocity_scale)
+    speed = np.abs(clamped_qdot)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = np.where(speed > limits, limits / speed, 1.0)
+    scale = float(ratios.min()) if ratios.size else 1.0
+    return clamped_qdot * scale, scale, clamped
+
+
+def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> float:
+    """Largest ``α`` in [0, 1] with ``|q̇_task,j + α q̇_null,j| <= limit_j`` for every joint (task priority).
+
+    0 when the task term alone already breaks a limit (the uniform scaling then handles it).
+
+    Args:
+        qdot_task: the tracking term [rad/s], ``(nv,)``.
+        qdot_null: the null-space term [rad/s], ``(nv,)``.
+        limits: joint speed limits [rad/s] (``inf`` = none), ``(nv,)``.
+    """
+    if np.any(np.abs(qdot_task) > limits):
+        return 0.0
+    alpha = 1.0
+    for a, b, lim in zip(qdot_task, qdot_null, limits, strict=True):
+        if np.isfinite(lim) and abs(a + b) > lim and b != 0.0:
+            alpha = min(alpha, (math.copysign(lim, b) - a) / b)
+    return max(0.0, alpha)
+
+
+def task_target(robot: Robot, path: HandPath, t: float) -> tuple[Array, Array]:
+    """Desired hand position and velocity at ``t`` [s], padded to 3-D: ``((3,) [m], (3,) [m/s])``."""
+    p, v = np.zeros(3), np.zeros(3)
+    d = path.dim
+    p[:d], v[:d] = path.position(t), path.velocity(t)
+    return p, v
+
+
+def track(
+    robot: Robot,
+    t: float,
+    q: Array,
+    state: ControlState,
+    v: Array,
+    params: ControllerParams,
+    targets: Array | None = None,
+    target_amsip: Array | None = None,
+) -> tuple[Array, ControlInfo]:
+    """Eq. 19 with feedback, damping and limits for a given null-space input ``v`` ``(nv,)``.
+
+    Args:
+        robot: the arm.
+        t: time [s].
+        q: configuration ``(nq,)``.
+        state: kinematics of ``q`` and the path.
+        v: null-space input [rad/s].
+        params: gains, damping, limits.
+        targets: imaginary arms to report (preview modes).
+        target_amsip: their AMSIP values.
+
+    Returns:
+        ``(q̇, info)``.
+    """
+    kin = state.kin
+    J = kin.J_task[0]
+    r_d, rdot_d = task_target(robot, state.path, t)
+    tip = kin.tip_position[0]
+    m = J.shape[0]
+    if robot.task == "pose":
+        R_d = state.path.orientation if state.path.orientation is not None else kin.tip_rotation[0]
+        error = np.concatenate([r_d - tip, pin.log3(R_d @ kin.tip_rotation[0].T)])
+        feedforward = np.concatenate([rdot_d, np.zeros(3)])
+    else:
+        error = (r_d - tip)[:m]
+        feedforward = rdot_d[:m]
+    J_sharp, lam = damped_pseudo_inverse(J, params.damping, params.singular_threshold)
+    qdot_task = J_sharp @ (feedforward + params.feedback_gain * error)
+    qdot_null = null_space_projector(J) @ v
+    null_scale = null_space_budget(qdot_task, qdot_null, effective_velocity_limits(robot, params.velocity_scale))
+    requested = qdot_task + null_scale * qdot_null
+    qdot, scale, clamped = apply_limits(robot, q, requested, state.dt, params.velocity_scale)
+    info = ControlInfo(
+        desired_position=r_d,
+        desired_velocity=rdot_d,
+        task_error=error,
+        v=np.array(v, dtype=float),
+        qdot_task=qdot_task,
+        qdot_null=qdot_null,
+        qdot_requested=requested,
+        null_scale=null_scale,
+        scale=scale,
+        clamped=clamped,
+        damping=lam,
+        targets=targets,
+        target_amsip=target_amsip,
+    )
+    return qdot, info
+
+
+def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
+    if len(gain) == 1:
+        return np.full(nv, gain[0])
+    if len(gain) != nv:
+        raise ConfigurationError(f"{where} has {len(gain)} entries; the robot has {nv} joint velocities")
+    return np.array(gain)
+
+
+# ------------------------------------------------------------------------------- controllers
+
+
+class TrackingController:
+    """``none``: eq. 19 with ``v = 0`` (minimum-norm hand tracking)."""
+
+    name = "none"
+
+    def __init__(self, robot: Robot, params: ControllerParams | None = None) -> None:
+        self.robot, self.params = robot, params or ControllerParams()
+
+    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
+        """Joint velocity [rad/s] for time ``t`` [s]; see :func:`track`."""
+        return track(self.robot, t, q, state, np.zeros(self.robot.nv), self.params)

@@ -1,0 +1,42 @@
+"""TODO docstring: index.potential."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.errors import ConfigurationError
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class Potential:
+    """The obstacle potential ``U`` (see the module docstring).
+
+    Attributes:
+        influence_distance: ``d_0`` [m]; links further than this from every obstacle feel nothing.
+        gain: ``g`` in (0, 1]; the fraction of E removed at contact.
+        collision_value: the (negative) S of a colliding configuration.
+    """
+
+    influence_distance: float = 0.15
+    gain: float = 1.0
+    collision_value: float = -1.0
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.influence_distance) and self.influence_distance > 0):
+            raise ConfigurationError(f"influence_distance must be > 0 [m], got {self.influence_distance!r}")
+        if not (0 < self.gain <= 1):
+            raise ConfigurationError(f"gain must lie in (0, 1], got {self.gain!r}")
+        if not self.collision_value < 0:
+            raise ConfigurationError(f"collision_value must be negative, got {self.collision_value!r}")
+
+    def apply(self, amsi: Array, link_distances: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
+        """``(S, U, collision)`` from ``amsi`` ``(B,)`` and ``link_distances`` ``(B, L)`` [m]."""
+        ramp = np.clip((self.influence_distance - link_distances) / self.influence_distance, 0.0, 1.0)
+        factor = np.prod(1.0 - self.gain * ramp**2, axis=1)
+        collision = np.asarray((link_distances <= 0.0).any(axis=1), dtype=bool)
+        S = np.where(collision, self.collision_value, amsi * factor)
+        return S, S - amsi, collision

@@ -1,0 +1,147 @@
+"""TODO docstring: kinematics."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from previewctl.robot.model import Robot
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Hand and control-point kinematics of a batch of configurations.
+
+    Attributes:
+        q: ``(B, nq)`` configurations.
+        tip_position: ``(B, 3)`` hand position [m].
+        tip_rotation: ``(B, 3, 3)`` hand orientation.
+        J_task: ``(B, m, nv)`` task Jacobian ``J_n`` (world-aligned, at the tip).
+        point_positions: ``(B, k, 3)`` control-point positions [m].
+        J_points: ``(B, k, d, nv)`` control-point position Jacobians ``J_i``.
+    """
+
+    q: Array
+    tip_position: Array
+    tip_rotation: Array
+    J_task: Array
+    point_positions: Array
+    J_points: Array
+
+
+# entries of the row-major 3 x 3 matrix -[p]x (so that -[p]x w = w x p), from p[source] * sign
+_SKEW_SLOTS = np.array([1, 2, 3, 5, 6, 7])
+_SKEW_SOURCES = np.array([2, 1, 2, 0, 1, 0])
+_SKEW_SIGNS = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
+
+
+class FrameKinematics:
+    """Placements and world-aligned Jacobians of chosen frames, for batches of configurations.
+
+    Per configuration, one Pinocchio call (``computeJointJacobians``) fills the joint placements and
+    the world-frame joint Jacobian ``data.J``; both are copied out through references held once (each
+    lookup through the bindings costs about a microsecond, more than the kinematics itself). The frame
+    Jacobians are then assembled for the whole batch: a frame at ``p`` [m] moves with the columns of the
+    joints that support it as ``(v_j + w_j x p, w_j)``, where ``(v_j, w_j)`` is column ``j`` of
+    ``data.J`` -- what ``pin.getFrameJacobian(..., LOCAL_WORLD_ALIGNED)`` returns, for all frames and
+    configurations at once.
+
+    Args:
+        model: the Pinocchio model.
+        frame_ids: the frames to follow.
+        data: the ``Data`` to fill (one is created if ``None``).
+    """
+
+    def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None) -> None:
+        self.model = model
+        self.data = model.createData() if data is None else data
+        parents = [int(model.frames[f].parentJoint) for f in frame_ids]
+        joints = sorted(set(parents))
+        self._slot = np.array([joints.index(j) for j in parents], dtype=int)
+        offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
+        self._moved = np.array([k for k, h in enumerate(offsets) if not np.allclose(h, np.eye(4))], dtype=int)
+        self._offset = np.array(offsets).reshape(-1, 4, 4)[self._moved]
+        self._support = np.zeros((len(frame_ids), 6, model.nv))  # full shape: a fast broadcast
+        for k, parent in enumerate(parents):
+            for j in model.supports[parent]:
+                joint = model.joints[j]
+                if j > 0:
+                    self._support[k, :, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        self._regroup = not np.array_equal(self._slot, np.arange(len(parents)))  # shared or reordered parents
+        self._partial_support = not self._support.all()  # some joint columns do not move some frame
+        self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
+        placements = list(self.data.oMi)  # element references, read without a lookup each
+        self._placements = [placements[j] for j in joints]
+
+    def __call__(self, Q: Array, after_each: Callable[[pin.Data], None] | None = None) -> tuple[Array, Array]:
+        """Placements ``(B, K, 4, 4)`` and Jacobians ``(B, K, 6, nv)`` (linear rows first) of the frames.
+
+        Args:
+            Q: ``(B, nq)`` validated configurations.
+            after_each: called as ``after_each(data)`` once the joint placements of each configuration
+                are in ``data``, in batch order (the scene uses it to compute distances on the same pass).
+        """
+        model, data, joint_J, placements = self.model, self.data, self._joint_J, self._placements
+        B, K = Q.shape[0], len(self._slot)
+        joint_jacobians, homogeneous = [], []  # appended, stacked once: cheaper than B x S row writes
+        for q in Q:
+            pin.computeJointJacobians(model, data, q)
+            joint_jacobians.append(joint_J.copy())
+            for placement in placements:
+                homogeneous.append(placement.homogeneous)
+            if after_each is not None:
+                after_each(data)
+        frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)
+        if self._regroup:
+            frames = frames[:, self._slot]
+        if self._moved.size:
+            frames[:, self._moved] = frames[:, self._moved] @ self._offset
+        # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
+        # matrix product for all frames of a configuration, then the support mask
+        J = np.array(joint_jacobians)
+        cross = np.zeros((B, K, 9))
+        cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
+        jacobians = np.empty((B, K, 6, model.nv))
+        jacobians[:, :, :3] = (cross.reshape(B, 3 * K, 3) @ J[:, 3:]).reshape(B, K, 3, model.nv)
+        jacobians[:, :, :3] += J[:, None, :3]
+        jacobians[:, :, 3:] = J[:, None, 3:]
+        if self._partial_support:
+            jacobians *= self._support
+        return frames, jacobians
+
+
+def kinematics(
+    robot: Robot,
+    Q: Array,
+    after_each: Callable[[pin.Data], None] | None = None,
+    reader: FrameKinematics | None = None,
+) -> Kinematics:
+    """Hand and control-point kinematics, one Pinocchio pass per configuration.
+
+    Args:
+        robot: the arm.
+        Q: ``(B, nq)`` validated configurations.
+        after_each: see :meth:`FrameKinematics.__call__`.
+        reader: the :func:`kinematics_reader` of ``robot`` to reuse (building one costs far more than a
+            configuration; keep it across calls).
+    """
+    reader = kinematics_reader(robot) if reader is None else reader
+    frames, jacobians = reader(Q, after_each)
+    tip = frames[:, -1]
+    return Kinematics(
+        Q,
+        tip[:, :3, 3],
+        tip[:, :3, :3],
+        jacobians[:, -1, robot.task_rows],
+        frames[:, :-1, :3, 3],
+        jacobians[:, :-1, robot.point_rows],
+    )
+
+
+def kinematics_reader(robot: Robot, data: pin.Data | None = None) -> FrameKinematics:
+    """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip."""
+    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data)

@@ -1,0 +1,336 @@
+"""Robots from URDF: a reduced Pinocchio model, its collision geometry, the task and control points.
+
+``load_robot(source)`` accepts a URDF file path, a robot shipped in ``robots/`` (``"planar4"``) or an
+example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
+
+* chain: from the root, follow the deepest subtree; stop where the remaining children are all leaf
+  joints (a gripper's fingers). Every joint off that chain is locked at its neutral value.
+* tip frame: on the last chain joint, a tool-like frame (``*tcp*``, ``tool0``, ``*end_effector*``,
+  ``ee_link``) if there is one, else the frame furthest from the joint in the frame tree.
+* task: ``planar`` (x, y) when every chain joint turns about the world z axis in one plane,
+  otherwise ``position``; ``pose`` (6 rows) on request.
+* control points: the distinct joint origins along the chain that move (for planar4 the tips of
+  links 1-3, as in the paper).
+* guarded links: the paper's "intermediate links" -- every moving link but the hand's -- are the
+  ones whose clearance enters the potential and the collision check (``guarded_links="all"``
+  adds the hand's link).
+* geometry: ``"convex"`` replaces meshes by their convex hulls and cylinders by capsules (a
+  conservative cover, 20-40x cheaper distances); ``"capsules"`` replaces every mesh and cylinder by
+  its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
+  distances are lower bounds, computed about 2.5x faster than against hulls); ``"mesh"`` keeps the
+  URDF geometry exactly.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Literal
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from previewctl.errors import RobotLoadError, UnknownNameError
+from previewctl.index.amsi import avoidance
+from previewctl.planar.chain import PlanarChain
+from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepare_geometry, select_guarded_links
+from previewctl.robot.model import GEOMETRY_CHOICES, TASK_ROWS, Geometry, Robot, Task
+
+_TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
+
+
+def shipped_robots_dir() -> Path:
+    """The folder of URDFs shipped with previewctl (inside the wheel, or the repo's ``robots/``)."""
+    packaged = resources.files("previewctl").joinpath("robots")
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parents[2] / "robots"
+
+
+def shipped_robot_names() -> tuple[str, ...]:
+    """Names of the robots shipped in ``robots/``."""
+    return tuple(sorted(p.stem for p in shipped_robots_dir().glob("*.urdf")))
+
+
+def example_robot_names() -> tuple[str, ...]:
+    """Names that example-robot-data's loader knows (empty if it is not installed)."""
+    try:
+        import example_robot_data
+    except ImportError:
+        return ()
+    return tuple(sorted(example_robot_data.ROBOTS))
+
+
+def load_robot(
+    source: str | os.PathLike[str],
+    *,
+    tip: str | None = None,
+    lock: Sequence[str] | None = None,
+    task: Task | None = None,
+    control_points: Sequence[str] | None = None,
+    guarded_links: Sequence[str] | Literal["all", "intermediate"] = "intermediate",
+    geometry: Geometry = "convex",
+    package_dirs: Sequence[str | os.PathLike[str]] = (),
+) -> Robot:
+    """Load an arm and prepare it for avoidance-manipulability evaluation.
+
+    Args:
+        source: a URDF path, a shipped robot name (``"planar4"``) or an example-robot-data name.
+        tip: hand frame; default: see the module docstring.
+        lock: joints to lock at their neutral value; default: every joint off the base-tip chain.
+        task: ``"planar"``, ``"position"`` or ``"pose"``; default: planar if the arm is planar.
+        control_points: joint names whose origins are control points; default: distinct moving
+            joint origins along the chain.
+        guarded_links: body names whose geometry counts for clearance, or ``"intermediate"``
+            (every moving link but the hand's, the default) or ``"all"`` (every moving link).
+        geometry: ``"convex"`` (convex hulls, capsules for cylinders), ``"capsules"`` (an enclosing
+            capsule per mesh or cylinder) or ``"mesh"`` (exact URDF).
+        package_dirs: folders to resolve ``package://`` mesh paths (URDF files only).
+
+    Raises:
+        RobotLoadError: missing or malformed file, no movable joint, missing mesh.
+        UnknownNameError: unknown robot, frame, joint or link name.
+    """
+    if geometry not in GEOMETRY_CHOICES:
+        raise UnknownNameError("geometry choice", geometry, GEOMETRY_CHOICES)
+    if task is not None and task not in TASK_ROWS:
+        raise UnknownNameError("task", task, TASK_ROWS)
+    name, model, collision = _load_source(source, package_dirs)
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r} has no movable joint")
+    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
+    locked = [j for j in range(1, model.njoints) if j not in chain]
+    if lock is not None:
+        for joint_name in lock:
+            if not model.existJointName(joint_name):
+                raise UnknownNameError("joint", joint_name, model.names[1:])
+    if locked:
+        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
+    tip_frame = tip if tip is not None else _default_tip(model)
+    if not model.existFrame(tip_frame):
+        raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
+    collision = prepare_geometry(collision, geometry)
+    planar_ok = _is_planar(model)
+    chosen_task: Task = task if task is not None else ("planar" if planar_ok else "position")
+    rows = TASK_ROWS["planar"] if chosen_task == "planar" else TASK_ROWS["position"]
+    points = _control_points(model, tip_frame, control_points, rows)
+    links = select_guarded_links(model, collision, tip_frame, guarded_links)
+    collision = keep_links(collision, model, links)
+    robot = Robot(name, model, collision, tip_frame, chosen_task, points, links, (), None)
+    ranks = _structural_ranks(robot)
+    planar = _planar_chain(robot) if chosen_task == "planar" and planar_ok else None
+    return Robot(name, model, collision, tip_frame, chosen_task, points, links, ranks, planar)
+
+
+# --------------------------------------------------------------------------------------- loading
+
+
+def _load_source(
+    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
+) -> tuple[str, pin.Model, pin.GeometryModel]:
+    """Resolve ``source`` to (name, full model, full collision model)."""
+    text = os.fspath(source)
+    shipped = shipped_robots_dir() / f"{text}.urdf"
+    if shipped.is_file():
+        return text, *_load_urdf(shipped, package_dirs)
+    if text.endswith(".urdf") or os.sep in text or Path(text).suffix:
+        path = Path(text)
+        if not path.is_file():
+            raise RobotLoadError(f"URDF file {text!r} does not exist")
+        return path.stem, *_load_urdf(path, package_dirs)
+    known = example_robot_names()
+    if text not in known:
+        raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
+    import example_robot_data
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        wrapper = example_robot_data.load(text)
+    return text, wrapper.model, wrapper.collision_model
+
+
+def _load_urdf(
+    path: Path, package_dirs: Sequence[str | os.PathLike[str]]
+) -> tuple[pin.Model, pin.GeometryModel]:
+    """Parse a URDF file with clear errors for malformed XML and missing meshes."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise RobotLoadError(f"URDF file {str(path)!r} is not valid XML: {exc}") from exc
+    if root.tag != "robot":
+        raise RobotLoadError(f"URDF file {str(path)!r} has root <{root.tag}>, expected <robot>")
+    dirs = [str(d) for d in package_dirs] + [str(path.parent), str(path.parent.parent)]
+    for mesh in root.iter("mesh"):
+        filename = mesh.get("filename", "")
+        if not mesh_exists(filename, path.parent, dirs):
+            raise RobotLoadError(f"URDF file {str(path)!r}: mesh file {filename!r} not found (searched {dirs})")
+    try:
+        model = pin.buildModelFromUrdf(str(path))
+        collision = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
+    except (ValueError, RuntimeError) as exc:
+        raise RobotLoadError(f"URDF file {str(path)!r} could not be loaded: {exc}") from exc
+    return model, collision
+
+
+# --------------------------------------------------------------------------------- chain and tip
+
+
+def _children(model: pin.Model) -> dict[int, list[int]]:
+    kids: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        kids[int(model.parents[j])].append(j)
+    return kids
+
+
+def _depth(kids: dict[int, list[int]], j: int) -> int:
+    return 1 + max((_depth(kids, c) for c in kids[j]), default=0)
+
+
+def _default_chain(model: pin.Model) -> set[int]:
+    """Joints from the root down the deepest subtree, stopping above a branch of leaves (fingers)."""
+    kids = _children(model)
+    chain: set[int] = set()
+    node = 0
+    while kids[node]:
+        children = kids[node]
+        if len(children) > 1 and all(not kids[c] for c in children):
+            break
+        node = max(children, key=lambda c: (_depth(kids, c), -c))
+        chain.add(node)
+    return chain
+
+
+def _chain_without(model: pin.Model, lock: Sequence[str]) -> set[int]:
+    """Every joint except the named ones."""
+    locked = {int(model.getJointId(n)) for n in lock if model.existJointName(n)}
+    return {j for j in range(1, model.njoints) if j not in locked}
+
+
+def _default_tip(model: pin.Model) -> str:
+    """A tool-like frame on the last joint, else the frame furthest from it in the frame tree."""
+    last = max(range(1, model.njoints), key=lambda j: (_joint_depth(model, j), j))
+    candidates = [i for i, f in enumerate(model.frames) if f.parentJoint == last]
+
+    def hops(i: int) -> int:
+        # A locked joint's frame can be its own parent after buildReducedModel: stop there too.
+        count = 0
+        while model.frames[i].parentJoint == last and model.frames[i].type != pin.FrameType.JOINT:
+            parent = int(model.frames[i].parentFrame)
+            if parent == i:
+                break
+            i, count = parent, count + 1
+        return count
+
+    tools = [i for i in candidates if any(h in model.frames[i].name.lower() for h in _TOOL_NAME_HINTS)]
+    best = max(tools or candidates, key=lambda i: (hops(i), i))
+    return str(model.frames[best].name)
+
+
+def _joint_depth(model: pin.Model, j: int) -> int:
+    depth = 0
+    while j:
+        j, depth = int(model.parents[j]), depth + 1
+    return depth
+
+
+def _chain_joints_to(model: pin.Model, frame_id: int) -> list[int]:
+    """Joint ids from the root to the joint that carries ``frame_id``."""
+    joints: list[int] = []
+    j = int(model.frames[frame_id].parentJoint)
+    while j:
+        joints.append(j)
+        j = int(model.parents[j])
+    return joints[::-1]
+
+
+def _structural_ranks(robot: Robot) -> tuple[int, ...]:
+    """Generic rank of each ``M_i``: the largest numerical rank over random configurations."""
+
+    rng = np.random.default_rng(12345)
+    result = avoidance(robot, robot.random_configurations(rng, 24), use_structural_ranks=False)
+    return tuple(int(r) for r in result.ranks.max(axis=0))
+
+
+def _control_points(
+    model: pin.Model, tip_frame: str, requested: Sequence[str] | None, rows: slice
+) -> tuple[str, ...]:
+    """Joint names whose origins serve as control points (validated or defaulted)."""
+    chain = _chain_joints_to(model, int(model.getFrameId(tip_frame)))
+    if requested is not None:
+        for joint_name in requested:
+            if not model.existJointName(joint_name):
+                raise UnknownNameError("control point joint", joint_name, model.names[1:])
+        return tuple(requested)
+    data = model.createData()
+    rng = np.random.default_rng(7)
+    samples = [pin.integrate(model, pin.neutral(model), rng.uniform(-np.pi, np.pi, model.nv)) for _ in range(4)]
+    samples.append(pin.neutral(model))
+    tracks = []
+    for q in samples:
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        tip_position = data.oMf[model.getFrameId(tip_frame)].translation
+        tracks.append([np.array(data.oMi[j].translation[rows]) for j in chain] + [np.array(tip_position[rows])])
+    positions = np.array(tracks)  # (S, len(chain)+1, d)
+    chosen: list[str] = []
+    kept: list[int] = []
+    for k, j in enumerate(chain):
+        moves = np.ptp(positions[:, k], axis=0).max() > 1e-9
+        duplicate = any(np.allclose(positions[:, k], positions[:, i], atol=1e-9) for i in kept)
+        at_tip = np.allclose(positions[:, k], positions[:, -1], atol=1e-9)
+        if moves and not duplicate and not at_tip:
+            chosen.append(str(model.names[j]))
+            kept.append(k)
+    return tuple(chosen)
+
+
+def _is_planar(model: pin.Model) -> bool:
+    """Every joint revolute about z, placements in one plane without tilt."""
+    for j in range(1, model.njoints):
+        if model.joints[j].shortname() != "JointModelRZ":
+            return False
+        placement = model.jointPlacements[j]
+        if not np.allclose(placement.rotation, np.eye(3), atol=1e-12) or abs(placement.translation[2]) > 1e-12:
+            return False
+    return True
+
+
+def _planar_chain(robot: Robot) -> PlanarChain | None:
+    """Closed-form chain data, or ``None`` if a guarded geometry is not an in-plane capsule."""
+    model = robot.model
+    offsets = np.array([model.jointPlacements[j].translation[:2] for j in range(1, model.njoints)])
+    tip = model.frames[robot.tip_frame_id]
+    tip_pose = tip.placement
+    if not np.isclose(tip_pose.translation[2], 0.0) or tip.parentJoint != model.njoints - 1:
+        return None
+    segments, radii, joints, link_index = [], [], [], []
+    for geom in robot.collision_model.geometryObjects:
+        shape = geom.geometry
+        if not isinstance(shape, coal.Capsule):
+            return None
+        axis = geom.placement.rotation[:, 2] * shape.halfLength
+        centre = geom.placement.translation
+        ends = np.array([centre - axis, centre + axis])
+        if not np.allclose(ends[:, 2], 0.0, atol=1e-12):
+            return None
+        segments.append(ends[:, :2])
+        radii.append(shape.radius)
+        joints.append(int(geom.parentJoint) - 1)
+        link_index.append(robot.guarded_links.index(body_name(model, geom)))
+    control = tuple(int(model.getJointId(n)) - 1 for n in robot.control_points)
+    return PlanarChain(
+        offsets=offsets,
+        tip_offset=np.array(tip_pose.translation[:2]),
+        control_joints=control,
+        link_joints=tuple(joints),
+        link_segments=np.array(segments).reshape(-1, 2, 2),
+        link_radii=np.array(radii),
+        link_index=tuple(link_index),
+    )

@@ -1,0 +1,163 @@
+"""TODO docstring: robot.model."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from previewctl.errors import ConfigurationError
+from previewctl.planar.chain import PlanarChain
+
+Task = Literal["planar", "position", "pose"]
+Geometry = Literal["convex", "capsules", "mesh"]
+GEOMETRY_CHOICES: tuple[Geometry, ...] = ("convex", "capsules", "mesh")
+TASK_ROWS: dict[str, slice] = {"planar": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A loaded arm. Build it with :func:`load_robot`.
+
+    Attributes:
+        name: the source it was loaded from.
+        model: the (reduced) Pinocchio model; ``q`` has ``model.nq`` entries.
+        collision_model: the arm's collision geometry (after the ``geometry`` choice).
+        tip_frame: the hand frame whose position (or pose) is the task.
+        task: ``"planar"``, ``"position"`` or ``"pose"``.
+        control_points: joint-frame names whose origins are the avoidance control points.
+        guarded_links: body names whose geometry counts for clearance and collision.
+        structural_ranks: generic rank of each control point's avoidance matrix ``M_i``.
+        planar: the closed-form chain when the arm is planar, else ``None``.
+    """
+
+    name: str
+    model: pin.Model
+    collision_model: pin.GeometryModel
+    tip_frame: str
+    task: Task
+    control_points: tuple[str, ...]
+    guarded_links: tuple[str, ...]
+    structural_ranks: tuple[int, ...]
+    planar: PlanarChain | None
+
+    @property
+    def nq(self) -> int:
+        """Number of configuration entries."""
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Number of joint velocities (degrees of freedom)."""
+        return int(self.model.nv)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the movable joints, in ``q`` order."""
+        return tuple(self.model.names[1:])
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """Names of every frame of the model."""
+        return tuple(f.name for f in self.model.frames)
+
+    @property
+    def tip_frame_id(self) -> int:
+        """Pinocchio id of the tip frame."""
+        return int(self.model.getFrameId(self.tip_frame))
+
+    @property
+    def control_frame_ids(self) -> tuple[int, ...]:
+        """Pinocchio ids of the control-point frames."""
+        return tuple(int(self.model.getFrameId(n)) for n in self.control_points)
+
+    @property
+    def task_rows(self) -> slice:
+        """Rows of the 6-D frame Jacobian that make the task Jacobian ``J_n``."""
+        return TASK_ROWS[self.task]
+
+    @property
+    def point_rows(self) -> slice:
+        """Rows of the frame Jacobian that make a control-point Jacobian ``J_i``."""
+        return TASK_ROWS["planar"] if self.task == "planar" else TASK_ROWS["position"]
+
+    @property
+    def lower_limits(self) -> NDArray[np.float64]:
+        """Lower joint position limits [rad or m], shape ``(nq,)``."""
+        return np.array(self.model.lowerPositionLimit, dtype=float)
+
+    @property
+    def upper_limits(self) -> NDArray[np.float64]:
+        """Upper joint position limits [rad or m], shape ``(nq,)``."""
+        return np.array(self.model.upperPositionLimit, dtype=float)
+
+    @property
+    def velocity_limits(self) -> NDArray[np.float64]:
+        """Joint speed limits [rad/s or m/s], shape ``(nv,)``."""
+        return np.array(self.model.velocityLimit, dtype=float)
+
+    def neutral(self) -> NDArray[np.float64]:
+        """The model's neutral configuration, shape ``(nq,)``."""
+        return np.array(pin.neutral(self.model), dtype=float)
+
+    def random_configurations(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+        """``count`` configurations drawn uniformly within the joint limits, shape ``(count, nq)``."""
+        lo, hi = self._finite_limits()
+        angles = rng.uniform(lo, hi, size=(count, self.nv))
+        return np.stack([self.configuration_from_angles(a) for a in angles]) if self.nq != self.nv else angles
+
+    def configuration_from_angles(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Map one vector of ``nv`` joint coordinates [rad or m] to a configuration ``(nq,)``.
+
+        Identical for ordinary joints; a continuous joint becomes its (cos, sin) pair.
+        """
+        return np.asarray(pin.integrate(self.model, pin.neutral(self.model), np.asarray(angles, float)))
+
+    def _finite_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Per-velocity-coordinate limits with infinite ones replaced by +-pi."""
+        lo, hi = np.full(self.nv, -np.pi), np.full(self.nv, np.pi)
+        for j in range(1, self.model.njoints):
+            joint = self.model.joints[j]
+            if joint.nq == joint.nv:
+                sl_q, sl_v = slice(joint.idx_q, joint.idx_q + joint.nq), slice(joint.idx_v, joint.idx_v + joint.nv)
+                lo[sl_v] = np.where(np.isfinite(self.lower_limits[sl_q]), self.lower_limits[sl_q], -np.pi)
+                hi[sl_v] = np.where(np.isfinite(self.upper_limits[sl_q]), self.upper_limits[sl_q], np.pi)
+        return lo, hi
+
+    def check_configurations(self, q: object) -> tuple[NDArray[np.float64], bool]:
+        """Validate ``q`` of shape ``(nq,)`` or ``(B, nq)``.
+
+        Returns:
+            A fresh ``(B, nq)`` float array and whether the input was a single configuration.
+
+        Raises:
+            ConfigurationError: wrong shape or a non-finite entry.
+        """
+        try:
+            arr = np.array(q, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ConfigurationError(f"q must be numbers, got {q!r}") from exc
+        single = arr.ndim == 1
+        batch = arr[None, :] if single else arr
+        if batch.ndim != 2 or batch.shape[1] != self.nq:
+            raise ConfigurationError(
+                f"q has shape {arr.shape}; robot {self.name!r} needs ({self.nq},) or (B, {self.nq}) "
+                f"for joints {', '.join(self.joint_names)}"
+            )
+        bad = ~np.isfinite(batch)
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            raise ConfigurationError(
+                f"q[{row}, {col}] = {batch[row, col]} (joint {self.joint_names_by_q()[col]!r}) is not finite"
+            )
+        return batch, single
+
+    def joint_names_by_q(self) -> tuple[str, ...]:
+        """For each configuration entry, the name of the joint it belongs to."""
+        names: list[str] = []
+        for j in range(1, self.model.njoints):
+            names += [self.model.names[j]] * self.model.joints[j].nq
+        return tuple(names)

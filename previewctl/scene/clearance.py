@@ -1,0 +1,86 @@
+"""TODO docstring: scene.clearance."""
+
+from __future__ import annotations
+
+import sys
+import warnings
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+if sys.version_info >= (3, 11):
+    pass
+else:  # pragma: no cover - Python 3.10
+    pass
+from previewctl.robot.model import Robot
+from previewctl.scene.shapes import Scene
+from previewctl.types import Array
+
+
+class Clearance:
+    """Distances between a robot's guarded geometry and a scene, through one Pinocchio geometry model.
+
+    Attributes:
+        pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
+        pair_obstacles: ``(P,)`` obstacle index of each pair.
+    """
+
+    def __init__(self, robot: Robot, scene: Scene) -> None:
+        self.robot, self.scene = robot, scene
+        self.geometry = pin.GeometryModel()
+        model = robot.model
+        self._link_of_geom = []
+        for geom in robot.collision_model.geometryObjects:
+            self.geometry.addGeometryObject(geom.copy())
+            self._link_of_geom.append(robot.guarded_links.index(str(model.frames[geom.parentFrame].name)))
+        n_robot = len(self._link_of_geom)
+        self._obstacle_ids = []
+        for obstacle in scene.obstacles:
+            shape = obstacle.shape.geometry()
+            obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), shape)
+            self._obstacle_ids.append(self.geometry.addGeometryObject(obj))
+        pair_links, pair_obstacles = [], []
+        for g in range(n_robot):
+            for k, o in enumerate(self._obstacle_ids):
+                self.geometry.addCollisionPair(pin.CollisionPair(g, o))
+                pair_links.append(self._link_of_geom[g])
+                pair_obstacles.append(k)
+        self.pair_links = np.array(pair_links, dtype=int)
+        self.pair_obstacles = np.array(pair_obstacles, dtype=int)
+        # pairs grouped by link, for one minimum.reduceat per batch
+        self._by_link = np.argsort(self.pair_links, kind="stable")
+        self._links_present, self._link_starts = np.unique(self.pair_links[self._by_link], return_index=True)
+        self.data = self.geometry.createData()
+        for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
+            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+            with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
+                warnings.simplefilter("ignore", DeprecationWarning)
+                request.enable_cached_gjk_guess = False
+        self._results = list(self.data.distanceResults)  # element references: no lookup per read
+        self._time = 0.0
+
+    def set_time(self, t: float) -> None:
+        """Move the obstacles to their placements at time ``t`` [s] (nothing to do if already there)."""
+        if float(t) == self._time:
+            return
+        self._time = float(t)
+        for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
+            self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
+
+    def pair_distances(self, data: pin.Data) -> list[float]:
+        """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
+
+        A plain list: a batch collects one per configuration and converts them to an array once.
+        """
+        pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
+        pin.computeDistances(self.geometry, self.data)
+        return [result.min_distance for result in self._results]
+
+    def per_link(self, pair_distances: Array) -> Array:
+        """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""
+        out = np.full((pair_distances.shape[0], len(self.robot.guarded_links)), np.inf)
+        if self._links_present.size:
+            grouped = pair_distances[:, self._by_link]
+            out[:, self._links_present] = np.minimum.reduceat(grouped, self._link_starts, axis=1)
+        return out

@@ -1,0 +1,538 @@
+"""Obstacle motions: where an obstacle is, and how it is turned, at any time.
+
+Every motion gives the obstacle's placement at time ``t`` [s] as ``(position (3,), rotation
+(3, 3))``. All motions here keep a fixed rotation; only the position changes. Positions (and
+velocities, amplitudes, centres) may be given with 2 entries for planar scenes, in which case
+``z = 0`` is appended.
+
+:func:`motion_from_dict` builds a motion from a TOML-like table, e.g.
+``{"type": "periodic", "center": [0.4, 0, 0.3], "amplitude": [0, 0.1, 0], "period": 4.0}``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from previewctl.errors import SceneError
+from previewctl.validation import check_finite, real_array, real_scalar, rotation_matrix, show
+
+
+@runtime_checkable
+class Motion(Protocol):
+    """Anything that places an obstacle in space as a function of time."""
+
+    def placement(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Placement at time ``t`` [s]: ``(position (3,) [m], rotation (3, 3))``, fresh copies."""
+        ...
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at times of shape (T,) [s], as an array of shape (T, 3) [m]."""
+        ...
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def _real_array(value: object, name: str) -> NDArray[np.float64]:
+    return real_array(value, name, SceneError)
+
+
+def _check_finite(array: NDArray[np.float64], name: str) -> None:
+    check_finite(array, name, SceneError)
+
+
+def _scalar(value: object, name: str) -> float:
+    return real_scalar(value, name, SceneError)
+
+
+def _frozen(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Mark ``array`` read-only and return it."""
+    array.flags.writeable = False
+    return array
+
+
+def _points(value: object, name: str, *, single: bool) -> NDArray[np.float64]:
+    """Validate a 3-vector (``single``) or a (K, 3) array; 2-entry rows get ``z = 0``.
+
+    Returns:
+        A fresh float64 array of shape (3,) or (K, 3) with K >= 1.
+    """
+    array = _real_array(value, name)
+    if single:
+        if array.ndim != 1 or array.shape[0] not in (2, 3):
+            raise SceneError(f"{name} must have 2 or 3 entries, got shape {array.shape}: {show(array)}")
+    elif array.ndim != 2 or array.shape[0] < 1 or array.shape[1] not in (2, 3):
+        raise SceneError(
+            f"{name} must have shape (K, 2) or (K, 3) with K >= 1, got shape {array.shape}: {show(array)}"
+        )
+    _check_finite(array, name)
+    if array.shape[-1] == 2:
+        array = np.concatenate((array, np.zeros((*array.shape[:-1], 1))), axis=-1)
+    return array
+
+
+def _rotation(value: object, name: str = "rotation") -> NDArray[np.float64]:
+    """Validate a rotation matrix (shape (3, 3), orthonormal, det +1) and return a copy."""
+    return rotation_matrix(value, name, SceneError)
+
+
+def _time(t: object) -> float:
+    """Validate a single evaluation time [s]."""
+    if isinstance(t, np.ndarray) and t.ndim == 0:
+        t = t[()]
+    return _scalar(t, "t")
+
+
+def _times(times: ArrayLike) -> NDArray[np.float64]:
+    """Validate evaluation times: a finite array of shape (T,) [s]."""
+    array = _real_array(times, "times")
+    if array.ndim != 1:
+        raise SceneError(f"times must have shape (T,), got shape {array.shape}: {show(array)}")
+    _check_finite(array, "times")
+    return array
+
+
+def _identity() -> NDArray[np.float64]:
+    """Default rotation: the identity."""
+    return np.eye(3)
+
+
+class _Placed:
+    """Shared behaviour: ``placement`` from ``positions`` plus the fixed ``rotation``."""
+
+    rotation: NDArray[np.float64]
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover
+        """Positions at times of shape (T,) [s], shape (T, 3) [m]."""
+        raise NotImplementedError
+
+    def placement(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Placement at time ``t``.
+
+        Args:
+            t: Time [s].
+
+        Returns:
+            ``(position, rotation)``: position, shape (3,) [m], and rotation, shape (3, 3);
+            fresh arrays that do not alias the motion's state.
+
+        Raises:
+            SceneError: If ``t`` is not a finite real number.
+        """
+        position = self.positions(np.array([_time(t)]))[0]
+        return position, self.rotation.copy()
+
+
+# ----------------------------------------------------------------------------- motions
+
+
+@dataclass(frozen=True, eq=False)
+class Static(_Placed):
+    """An obstacle that does not move.
+
+    Attributes:
+        position: Position, shape (3,) [m] (2 entries are padded with z = 0). Read-only.
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+    """
+
+    position: NDArray[np.float64]
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        object.__setattr__(self, "position", _frozen(_points(self.position, "position", single=True)))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        return np.tile(self.position, (_times(times).shape[0], 1))
+
+
+@dataclass(frozen=True, eq=False)
+class ConstantVelocity(_Placed):
+    """An obstacle moving in a straight line: ``p(t) = position + velocity (t - start_time)``.
+
+    Before ``start_time`` the obstacle stays at ``position``.
+
+    Attributes:
+        position: Position at ``start_time``, shape (3,) [m]. Read-only.
+        velocity: Velocity, shape (3,) [m/s]. Read-only.
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+        start_time: Time the motion starts [s].
+    """
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+    start_time: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        object.__setattr__(self, "position", _frozen(_points(self.position, "position", single=True)))
+        object.__setattr__(self, "velocity", _frozen(_points(self.velocity, "velocity", single=True)))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+        object.__setattr__(self, "start_time", _scalar(self.start_time, "start_time"))
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        elapsed = np.maximum(_times(times) - self.start_time, 0.0)
+        return self.position + elapsed[:, None] * self.velocity
+
+
+@dataclass(frozen=True, eq=False)
+class Waypoints(_Placed):
+    """An obstacle moving linearly between timed positions.
+
+    Without ``loop`` the obstacle holds ``waypoints[0]`` before ``times[0]`` and
+    ``waypoints[-1]`` after ``times[-1]``. With ``loop`` the motion is extended periodically
+    (in both directions) with period ``times[-1] - times[0]``; at each wrap it returns to
+    ``waypoints[0]`` (it jumps there unless ``waypoints[-1] == waypoints[0]``).
+
+    Attributes:
+        times: Strictly increasing times, shape (K,) [s], K >= 1 (K >= 2 with ``loop``).
+            Read-only.
+        waypoints: Positions at ``times``, shape (K, 3) [m] (2 columns are padded with z = 0).
+            Read-only. (Named ``waypoints``, not ``positions``, because ``positions`` is the
+            evaluation method every :class:`Motion` has.)
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+        loop: Whether the motion repeats.
+    """
+
+    times: NDArray[np.float64]
+    waypoints: NDArray[np.float64]
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+    loop: bool = False
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        times = _real_array(self.times, "times")
+        if times.ndim != 1 or times.shape[0] < 1:
+            raise SceneError(f"times must have shape (K,) with K >= 1, got shape {times.shape}: {show(times)}")
+        _check_finite(times, "times")
+        steps = np.diff(times)
+        if np.any(steps <= 0.0):
+            i = int(np.argmax(steps <= 0.0))
+            raise SceneError(
+                f"times must be strictly increasing, but times[{i}] = {float(times[i])!r} and "
+                f"times[{i + 1}] = {float(times[i + 1])!r} (in times = {show(times)})"
+            )
+        points = _points(self.waypoints, "waypoints", single=False)
+        if points.shape[0] != times.shape[0]:
+            raise SceneError(
+                f"waypoints must have one row per time: got {points.shape[0]} rows for "
+                f"{times.shape[0]} times (times = {show(times)})"
+            )
+        if not isinstance(self.loop, (bool, np.bool_)):
+            raise SceneError(f"loop must be true or false, got {show(self.loop)}")
+        if self.loop and times.shape[0] < 2:
+            raise SceneError(f"loop needs at least 2 times (a period > 0), got times = {show(times)}")
+        object.__setattr__(self, "times", _frozen(times))
+        object.__setattr__(self, "waypoints", _frozen(points))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+        object.__setattr__(self, "loop", bool(self.loop))
+
+    @property
+    def period(self) -> float | None:
+        """Repeat period ``times[-1] - times[0]`` [s] if ``loop``, else ``None``."""
+        return float(self.times[-1] - self.times[0]) if self.loop else None
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        query = _times(times)
+        if self.loop:
+            period = float(self.times[-1] - self.times[0])
+            phase = np.mod(query - self.times[0], period)
+            phase[phase >= period] = 0.0  # np.mod may round a tiny negative up to the period
+            query = self.times[0] + phase
+        return np.stack([np.interp(query, self.times, self.waypoints[:, axis]) for axis in range(3)], axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class Periodic(_Placed):
+    """An obstacle oscillating: ``p(t) = center + amplitude * sin(2 pi t / period + phase)``.
+
+    Attributes:
+        center: Centre of the oscillation, shape (3,) [m]. Read-only.
+        amplitude: Amplitude per axis, shape (3,) [m]. Read-only.
+        period: Period [s], > 0.
+        phase: Phase at ``t = 0`` [rad].
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+    """
+
+    center: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+    period: float
+    phase: float = 0.0
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        object.__setattr__(self, "center", _frozen(_points(self.center, "center", single=True)))
+        object.__setattr__(self, "amplitude", _frozen(_points(self.amplitude, "amplitude", single=True)))
+        period = _scalar(self.period, "period")
+        if period <= 0.0:
+            raise SceneError(f"period must be > 0 [s], got {period!r}")
+        object.__setattr__(self, "period", period)
+        object.__setattr__(self, "phase", _scalar(self.phase, "phase"))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        angle = 2.0 * np.pi * _times(times) / self.period + self.phase
+        return self.center + np.sin(angle)[:, None] * self.amplitude
+
+
+# ----------------------------------------------------------------------------- rotations
+
+
+def rpy_to_matrix(rpy: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix from roll, pitch, yaw: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    Args:
+        rpy: ``[roll, pitch, yaw]`` [rad].
+
+    Returns:
+        Rotation matrix, shape (3, 3).
+
+    Raises:
+        SceneError: If ``rpy`` is not 3 finite real numbers.
+    """
+    angles = _real_array(rpy, "rpy")
+    if angles.shape != (3,):
+        raise SceneError(f"rpy must be [roll, pitch, yaw] (3 numbers) [rad], got shape {angles.shape}: {show(angles)}")
+    _check_finite(angles, "rpy")
+    (cr, cp, cy), (sr, sp, sy) = np.cos(angles), np.sin(angles)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    matrix: NDArray[np.float64] = rz @ ry @ rx
+    return matrix
+
+
+# ----------------------------------------------------------------------------- from tables
+
+
+def _is_number(value: object) -> bool:
+    """Whether ``value`` is a real number as a table would hold it (bools excluded)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _table_number(value: object, name: str) -> float:
+    """A finite real number from a table entry; ``name`` is its location."""
+    if not _is_number(value):
+        raise SceneError(f"{name} must be a number, got {show(value)}")
+    number = float(value)  # type: ignore[arg-type]
+    if not np.isfinite(number):
+        raise SceneError(f"{name} must be finite, got {number!r}")
+    return number
+
+
+def _table_vector(value: object, name: str, sizes: tuple[int, ...] = (2, 3)) -> list[float]:
+    """A list of finite numbers with a length in ``sizes`` from a table entry."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    wanted = " or ".join(str(n) for n in sizes)
+    if (
+        not isinstance(value, Sequence)
+        or isinstance(value, (str, bytes))
+        or len(value) not in sizes
+        or not all(_is_number(x) for x in value)
+    ):
+        raise SceneError(f"{name} must be a list of {wanted} numbers, got {show(value)}")
+    numbers = [float(x) for x in value]
+    if not all(np.isfinite(numbers)):
+        raise SceneError(f"{name} must be finite, got {show(value)}")
+    return numbers
+
+
+def _table_vectors(value: object, name: str) -> list[list[float]]:
+    """A non-empty list of 2- or 3-vectors from a table entry."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or not value:
+        raise SceneError(f"{name} must be a non-empty list of [x, y] or [x, y, z] positions, got {show(value)}")
+    return [_table_vector(row, f"{name}[{i}]") for i, row in enumerate(value)]
+
+
+def _table_times(value: object, name: str) -> list[float]:
+    """A non-empty list of finite times from a table entry."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if (
+        not isinstance(value, Sequence)
+        or isinstance(value, (str, bytes))
+        or not value
+        or not all(_is_number(x) for x in value)
+    ):
+        raise SceneError(f"{name} must be a non-empty list of numbers [s], got {show(value)}")
+    return [_table_number(x, f"{name}[{i}]") for i, x in enumerate(value)]
+
+
+def _table_bool(value: object, name: str) -> bool:
+    """A boolean from a table entry."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise SceneError(f"{name} must be true or false, got {show(value)}")
+    return bool(value)
+
+
+_Parsed = tuple[type, dict[str, object]]
+"""A motion class and the validated keyword arguments (all but ``rotation``) for it."""
+_Parser = Callable[[Mapping[str, object], Callable[[str], str]], _Parsed]
+
+
+def _parse_static(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
+    """Constructor arguments (without rotation) of a ``static`` table."""
+    return Static, {"position": _table_vector(spec["position"], at("position"))}
+
+
+def _parse_constant_velocity(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
+    """Constructor arguments (without rotation) of a ``constant_velocity`` table."""
+    return ConstantVelocity, {
+        "position": _table_vector(spec["position"], at("position")),
+        "velocity": _table_vector(spec["velocity"], at("velocity")),
+        "start_time": _table_number(spec.get("start_time", 0.0), at("start_time")),
+    }
+
+
+def _parse_waypoints(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
+    """Constructor arguments (without rotation) of a ``waypoints`` table."""
+    times = _table_times(spec["times"], at("times"))
+    points = _table_vectors(spec["positions"], at("positions"))
+    if len(points) != len(times):
+        raise SceneError(
+            f"{at('positions')} must have one position per time: got {len(points)} positions "
+            f"for {len(times)} times {times}"
+        )
+    loop = _table_bool(spec.get("loop", False), at("loop"))
+    return Waypoints, {"times": times, "waypoints": points, "loop": loop}
+
+
+def _parse_periodic(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
+    """Constructor arguments (without rotation) of a ``periodic`` table."""
+    return Periodic, {
+        "center": _table_vector(spec["center"], at("center")),
+        "amplitude": _table_vector(spec["amplitude"], at("amplitude")),
+        "period": _table_number(spec["period"], at("period")),
+        "phase": _table_number(spec.get("phase", 0.0), at("phase")),
+    }
+
+
+# type -> (required keys, optional keys besides "type" and "rpy", parser)
+_TYPES: dict[str, tuple[tuple[str, ...], tuple[str, ...], _Parser]] = {
+    "static": (("position",), (), _parse_static),
+    "constant_velocity": (("position", "velocity"), ("start_time",), _parse_constant_velocity),
+    "waypoints": (("times", "positions"), ("loop",), _parse_waypoints),
+    "periodic": (("center", "amplitude", "period"), ("phase",), _parse_periodic),
+}
+
+MOTION_TYPES: tuple[str, ...] = tuple(_TYPES)
+"""Valid values of a motion table's ``type`` key."""
+
+
+def motion_from_dict(spec: Mapping[str, object], where: str) -> Motion:
+    """Build a motion from a TOML-like table.
+
+    Keys per ``type`` (``rpy = [roll, pitch, yaw]`` [rad] is optional for every type, and sets
+    the rotation ``Rz(yaw) Ry(pitch) Rx(roll)``; default identity):
+
+    * ``static``: ``position``.
+    * ``constant_velocity``: ``position``, ``velocity``; optional ``start_time`` (default 0).
+    * ``waypoints``: ``times``, ``positions``; optional ``loop`` (default false).
+    * ``periodic``: ``center``, ``amplitude``, ``period``; optional ``phase`` (default 0).
+
+    Vectors may have 2 entries (planar scenes); ``z = 0`` is appended.
+
+    Args:
+        spec: The table, e.g. ``{"type": "static", "position": [0.3, 0.2, 0.0]}``.
+        where: Location of the table, used as a prefix in messages, e.g.
+            ``"obstacles[2].motion"``.
+
+    Returns:
+        The motion.
+
+    Raises:
+        SceneError: On an unknown or missing ``type`` (lists the valid types), an unknown key
+            (lists the valid keys for the type), a missing key, a value of the wrong type or an
+            invalid value; the message names ``where.key`` and the value.
+    """
+    if not isinstance(spec, Mapping):
+        raise SceneError(f"{where} must be a table with a 'type' key, got {show(spec)}")
+    valid_types = ", ".join(repr(name) for name in MOTION_TYPES)
+    if "type" not in spec:
+        raise SceneError(f"{where}.type is missing; valid types: {valid_types}")
+    kind = spec["type"]
+    if not isinstance(kind, str) or kind not in _TYPES:
+        raise SceneError(f"{where}.type: unknown motion type {kind!r}; valid types: {valid_types}")
+    required, optional, parse = _TYPES[kind]
+    valid_keys = ("type", *required, *optional, "rpy")
+    for key in spec:
+        if key not in valid_keys:
+            raise SceneError(
+                f"{where}: unknown key {key!r} for motion type {kind!r}; valid keys: {', '.join(valid_keys)}"
+            )
+    for key in required:
+        if key not in spec:
+            raise SceneError(f"{where}.{key} is missing; motion type {kind!r} requires {', '.join(required)}")
+
+    def at(key: str) -> str:
+        return f"{where}.{key}"
+
+    rotation = np.eye(3)
+    if "rpy" in spec:
+        rotation = rpy_to_matrix(_table_vector(spec["rpy"], at("rpy"), sizes=(3,)))
+    cls, kwargs = parse(spec, at)
+    try:
+        motion: Motion = cls(**kwargs, rotation=rotation)
+    except SceneError as exc:
+        # Constructor messages start with the field name, e.g. "times must be strictly ...".
+        raise SceneError(f"{where}.{exc}") from exc
+    return motion

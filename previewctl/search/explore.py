@@ -1,0 +1,204 @@
+"""TODO docstring: search.explore."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.errors import ConfigurationError, UnreachableTargetError
+from previewctl.index.evaluator import Evaluator
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.model import Robot
+from previewctl.search.genes import (
+    Candidate,
+    check_positive_int,
+    distinct,
+    gene_periodic,
+    halton,
+    joint_distance,
+    joint_periodic,
+    reach_check,
+)
+from previewctl.search.maps import joint_angles, redundancy_map
+from previewctl.search.redundancy import RedundancyMap, parse_target
+from previewctl.search.scoring import score, score_configurations
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class Landscape:
+    """AMSIP over the redundancy space of one hand target at one time.
+
+    Attributes:
+        target: ``(3,)`` hand position [m] (z = 0 for a planar target).
+        t: time [s] at which the obstacles were placed.
+        method: ``"grid"`` or ``"samples"``.
+        axes: the grid axes, one ``(n_k,)`` array [rad] per gene (``()`` for samples).
+        S_map: ``(branches, n_1, ..., n_g)`` AMSIP on the grid (``None`` for samples).
+        genes: ``(N, g)`` every candidate's genes [rad]. Grid: the axis values (periodic ones in
+            ``[0, 2 pi)``), branch-major order, then the gene axes in C order. Samples: where reachable,
+            the genes of the solved configuration (``genes_of(q)``), else the sampled genes.
+        branch: ``(N,)`` their branches.
+        S: ``(N,)`` their AMSIP.
+        reachable: ``(N,)`` whether the hand reaches the target.
+        best: the candidate of largest S.
+        peaks: up to ``top_k`` distinct local maxima with ``S > 0``, best first.
+    """
+
+    target: Array
+    t: float
+    method: str
+    axes: tuple[Array, ...]
+    S_map: Array | None
+    genes: Array
+    branch: NDArray[np.int_]
+    S: Array
+    reachable: NDArray[np.bool_]
+    best: Candidate
+    peaks: tuple[Candidate, ...]
+
+
+# ----------------------------------------------------------------------------------- explore
+
+
+def _grid_axes(redundancy: RedundancyMap, resolution: float) -> tuple[Array, ...]:
+    axes: list[Array] = []
+    periodic = gene_periodic(redundancy)
+    for lo, hi, per in zip(redundancy.gene_lower, redundancy.gene_upper, periodic, strict=True):
+        if per:
+            count = max(1, round(2 * np.pi / resolution))
+            axes.append(np.arange(count, dtype=np.float64) * (2 * np.pi / count))
+        else:
+            count = max(1, int(np.floor((hi - lo) / resolution + 1e-9)) + 1)
+            axes.append(lo + np.arange(count) * resolution)
+    return tuple(axes)
+
+
+def _grid_maxima(S_map: Array, periodic: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells of ``S_map (branches, n_1, ..., n_g)`` not below any of their (3^g - 1) grid neighbours."""
+    g = S_map.ndim - 1
+    is_max = S_map > 0
+    for offset in np.ndindex(*(3,) * g):
+        shift = tuple(o - 1 for o in offset)
+        if not any(shift):
+            continue
+        neighbour = S_map
+        for axis, (s, per) in enumerate(zip(shift, periodic, strict=True), start=1):
+            if s == 0:
+                continue
+            neighbour = np.roll(neighbour, -s, axis=axis)
+            if not per:  # no wrap: the rolled-in edge has no neighbour
+                edge = [slice(None)] * S_map.ndim
+                edge[axis] = slice(-1, None) if s > 0 else slice(0, 1)
+                neighbour = neighbour.copy()
+                neighbour[tuple(edge)] = -np.inf
+        is_max &= S_map >= neighbour
+    return is_max
+
+
+def explore(
+    robot: Robot,
+    evaluator: Evaluator,
+    target: object,
+    t: float = 0.0,
+    *,
+    resolution_deg: float = 1.0,
+    samples: int | None = None,
+    top_k: int = 4,
+    rng: np.random.Generator | None = None,
+    redundancy: RedundancyMap | None = None,
+    min_separation: float = 0.35,
+) -> Landscape:
+    """Global exploration of AMSIP over the redundancy space of ``target`` at time ``t`` [s].
+
+    Args:
+        robot: the arm.
+        evaluator: AMSIP evaluator (robot, scene, index, potential).
+        target: hand target (see :func:`previewctl.redundancy.parse_target`).
+        t: time [s] at which the obstacles are placed.
+        resolution_deg: grid step [deg] (maps with 1 or 2 genes).
+        samples: number of Halton samples of the genes for maps with more genes (default: 65,536 for the
+            vectorised planar map, 1,024 for the Newton map); ignored on a grid.
+        top_k: the most peaks to report.
+        rng: random shift of the Halton sequence (``None``: unshifted, deterministic).
+        redundancy: the map (default :func:`~previewctl.redundancy.redundancy_map`).
+        min_separation: least joint-space distance [rad] between two reported peaks.
+
+    Returns:
+        The landscape. On a grid, a peak is a cell not below any of its 8 neighbours (periodic genes
+        wrap around), then the peaks are taken best first, each at least ``min_separation`` from the
+        ones kept. With samples, a peak is a sample with no better sample within ``min_separation``.
+
+    Raises:
+        UnreachableTargetError: no candidate puts the hand on the target.
+        ConfigurationError: a bad option or target.
+    """
+    if not (np.isfinite(resolution_deg) and 0 < resolution_deg <= 90):
+        raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {resolution_deg!r}")
+    top_k = check_positive_int("top_k", top_k)
+    if not (np.isfinite(min_separation) and min_separation >= 0):
+        raise ConfigurationError(f"min_separation must be >= 0 [rad], got {min_separation!r}")
+    red = redundancy if redundancy is not None else redundancy_map(robot)
+    goal = parse_target(target, robot)
+    reach_check(red, target, robot)
+    g = int(np.asarray(red.gene_lower).size)
+    branches = int(red.branches)
+    if g <= 2:
+        axes = _grid_axes(red, np.radians(resolution_deg))
+        mesh = np.meshgrid(*axes, indexing="ij") if g else []
+        one = np.stack([m.ravel() for m in mesh], axis=1) if g else np.zeros((1, 0))
+        genes = np.tile(one, (branches, 1))
+        branch = np.repeat(np.arange(branches), one.shape[0])
+        method = "grid"
+    else:
+        count = samples if samples is not None else (65536 if isinstance(red, PlanarRedundancy) else 1024)
+        count = check_positive_int("samples", count)
+        unit = halton(count, g, rng)
+        one = red.gene_lower + unit * (red.gene_upper - red.gene_lower)
+        genes = np.tile(one, (branches, 1))
+        branch = np.repeat(np.arange(branches), count)
+        axes = ()
+        method = "samples"
+    if method == "grid" and isinstance(red, PlanarRedundancy):
+        scored = score_configurations(evaluator, *red.solve_grid(axes, target), t)
+    else:
+        scored = score(evaluator, red, genes, branch, target, t)
+    if method == "samples" and scored.reachable.any():
+        genes = genes.copy()  # the sampled genes moved onto the manifold (identity for a closed form)
+        genes[scored.reachable], branch[scored.reachable] = red.genes_of(scored.Q[scored.reachable])
+    if not scored.reachable.any():
+        raise UnreachableTargetError(
+            f"target {np.round(goal.position, 4).tolist()} [m]: none of {genes.shape[0]} candidates of robot "
+            f"{robot.name!r} reaches it"
+        )
+    S = scored.S
+    best_i = int(np.argmax(np.where(scored.reachable, S, -np.inf)))
+
+    def candidate(i: int) -> Candidate:
+        # the map's genes of the solved configuration (for the Newton map: the projected genes)
+        solved, solved_branch = red.genes_of(scored.Q[i : i + 1])
+        return Candidate(solved[0], int(solved_branch[0]), scored.Q[i].copy(), float(S[i]))
+
+    best = candidate(best_i)
+    periodic = joint_periodic(robot)
+    if method == "grid":
+        S_map = S.reshape((branches, *(len(a) for a in axes)))
+        maxima = np.flatnonzero(_grid_maxima(S_map, gene_periodic(red)).ravel())
+        order = maxima[np.argsort(-S[maxima], kind="stable")]
+        picked = distinct(joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
+        kept = [int(order[k]) for k in picked]
+    else:
+        S_map = None
+        valid = np.flatnonzero(S > 0)
+        order = valid[np.argsort(-S[valid], kind="stable")][:5000]
+        angles = joint_angles(robot, scored.Q[order])
+        kept = []
+        for rank in range(order.size):
+            if len(kept) >= top_k:
+                break
+            if rank == 0 or joint_distance(angles[rank : rank + 1], angles[:rank], periodic).min() >= min_separation:
+                kept.append(int(order[rank]))
+    peaks = tuple(candidate(i) for i in kept)
+    return Landscape(goal.position, float(t), method, axes, S_map, genes, branch, S, scored.reachable, best, peaks)

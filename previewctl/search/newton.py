@@ -1,0 +1,273 @@
+"""TODO docstring: search.newton."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from previewctl.errors import ConfigurationError
+from previewctl.robot.model import Robot
+from previewctl.search.redundancy import Target, check_genes, parse_target, wrap_angle
+from previewctl.types import Array
+from previewctl.validation import show
+
+
+class NewtonRedundancy:
+    """General redundancy map: genes = a joint vector projected onto ``f(q) = target`` (module docstring).
+
+    Args:
+        robot: any arm.
+        tolerance: position residual [m] below which the hand is on the target (default 1e-4).
+        angle_tolerance: rotation residual [rad] for a pose task (default 1e-3).
+        iterations: the most Newton steps per call (default 20; converged rows stop early).
+        damping: largest ``lambda`` [m] of the damped least squares (default 0.02; see the module docstring).
+        max_step: largest task-error norm [m] corrected per step (default 0.2).
+
+    Attributes:
+        gene_lower, gene_upper: ``(nv,)`` bounds [rad]: the joint limits, ``[-pi, pi)`` for continuous
+            joints (and for revolute joints without finite limits).
+        periodic: ``(nv,)`` true for the continuous/unbounded joints.
+        branches: 1.
+    """
+
+    branches: int = 1
+
+    def __init__(
+        self,
+        robot: Robot,
+        *,
+        tolerance: float = 1e-4,
+        angle_tolerance: float = 1e-3,
+        iterations: int = 20,
+        damping: float = 0.02,
+        max_step: float = 0.2,
+    ) -> None:
+        for name, value in (("tolerance", tolerance), ("angle_tolerance", angle_tolerance),
+                            ("damping", damping), ("max_step", max_step)):
+            if not (np.isfinite(value) and value > 0):
+                raise ConfigurationError(f"{name} must be > 0, got {value!r}")
+        if not (isinstance(iterations, int) and iterations >= 0):
+            raise ConfigurationError(f"iterations must be a non-negative integer, got {iterations!r}")
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        # an element reference: computeFrameJacobian(..., LOCAL_WORLD_ALIGNED) writes the hand's placement
+        # there (Pinocchio's frames.hxx); the Newton tests check the hand by independent forward kinematics
+        self._hand_placement = self.data.oMf[robot.tip_frame_id]
+        self.tolerance, self.angle_tolerance = float(tolerance), float(angle_tolerance)
+        self.iterations, self.damping = iterations, float(damping)
+        self.max_step = float(max_step)
+        self.rows = robot.task_rows
+        self.m = self.rows.stop - self.rows.start
+        self.tip_id = robot.tip_frame_id
+        self.neutral = robot.neutral()
+        nv = robot.nv
+        lower, upper = np.full(nv, -np.pi), np.full(nv, np.pi)
+        periodic = np.ones(nv, dtype=bool)
+        clip_q: list[int] = []
+        clip_v: list[int] = []
+        for j in range(1, self.model.njoints):
+            joint = self.model.joints[j]
+            if joint.nq == joint.nv:
+                for k in range(joint.nv):
+                    lo, hi = robot.lower_limits[joint.idx_q + k], robot.upper_limits[joint.idx_q + k]
+                    if np.isfinite(lo) and np.isfinite(hi):
+                        lower[joint.idx_v + k], upper[joint.idx_v + k] = lo, hi
+                        periodic[joint.idx_v + k] = False
+                        clip_q.append(joint.idx_q + k)
+                        clip_v.append(joint.idx_v + k)
+        self.gene_lower, self.gene_upper, self.periodic = lower, upper, periodic
+        self._clip = np.array(clip_q, dtype=int)
+        self._clip_v = np.array(clip_v, dtype=int)
+        # every joint a 1-dof revolute/prismatic one: pin.integrate is plain addition, done for the batch
+        self._vector_space = all(
+            self.model.joints[j].nq == self.model.joints[j].nv == 1
+            and self.model.joints[j].shortname().startswith(("JointModelR", "JointModelP"))
+            for j in range(1, self.model.njoints)
+        )
+        self._q_lower = robot.lower_limits[self._clip]
+        self._q_upper = robot.upper_limits[self._clip]
+        self._lower_margin, self._upper_margin = self._q_lower + 1e-9, self._q_upper - 1e-9
+        self._eye = np.eye(self.m)
+
+    # ------------------------------------------------------------------ genes <-> configurations
+
+    def configurations(self, genes: Array) -> Array:
+        """Configurations ``(B, nq)`` of joint-angle vectors ``(B, nv)`` (no projection)."""
+        if self.robot.nq == self.robot.nv:
+            return np.array(genes, dtype=float)
+        return np.stack([pin.integrate(self.model, self.neutral, g) for g in genes])
+
+    def genes_of(self, Q: Array) -> tuple[Array, NDArray[np.int_]]:
+        """Joint angles ``(B, nv)`` of configurations ``(B, nq)``; branch 0."""
+        Qb, _ = self.robot.check_configurations(Q)
+        if self.robot.nq == self.robot.nv:
+            genes = Qb.copy()
+        else:
+            genes = np.stack([pin.difference(self.model, self.neutral, q) for q in Qb])
+        genes = np.where(self.periodic, wrap_angle(genes), genes)
+        return genes, np.zeros(Qb.shape[0], dtype=int)
+
+    # ----------------------------------------------------------------------------- projection
+
+    def _hand(self, Q: Array) -> tuple[Array, Array]:
+        """Hand placements ``(A, 4, 4)`` and world-aligned Jacobians ``(A, 6, nv)`` (linear rows first).
+
+        One ``computeFrameJacobian`` per row: for the hand frame alone this beats the batched assembly
+        of :class:`~previewctl.avoidance.FrameKinematics`, whose fixed numpy cost dominates the small
+        batches of the late Newton passes.
+        """
+        model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement
+        jacobians, placements = [], []
+        for q in Q:
+            jacobians.append(pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED))
+            placements.append(placement.homogeneous)
+        return np.array(placements).reshape(-1, 4, 4), np.array(jacobians).reshape(-1, 6, model.nv)
+
+    def _task_error(self, goal_positions: Array, goal_rotations: Array | None, positions: Array,
+                    rotations: Array) -> Array:
+        """Task errors ``(A, m)`` from hand placements toward per-row goals ``(A, 3)`` (and ``(A, 3, 3)``
+        orientations for a pose task)."""
+        linear = goal_positions - positions
+        if goal_rotations is None:
+            return linear[:, self.rows]
+        angular = np.array([pin.log3(Rd @ R.T) for Rd, R in zip(goal_rotations, rotations, strict=True)])
+        return np.concatenate([linear, angular.reshape(-1, 3)], axis=1)
+
+    def _converged(self, err: Array) -> NDArray[np.bool_]:
+        pos = _row_norm(err[:, :3] if self.m >= 3 else err) < self.tolerance
+        if self.m == 6:
+            pos &= _row_norm(err[:, 3:]) < self.angle_tolerance
+        return pos
+
+    def _clip_limits(self, Q: Array) -> Array:
+        """Clip the bounded joints of configurations ``(A, nq)`` to their limits (in place)."""
+        if self._clip.size:
+            Q[:, self._clip] = np.minimum(np.maximum(Q[:, self._clip], self._q_lower), self._q_upper)
+        return Q
+
+    def _step(self, J: Array, err: Array, Q: Array) -> Array:
+        """Damped least-squares steps ``(A, nv)``; joints at a limit that the step pushes further are frozen."""
+        JT = np.ascontiguousarray(np.swapaxes(J, 1, 2))
+        ratio = np.minimum(np.maximum(_row_norm(err[:, :3] if self.m >= 3 else err) / self.max_step, 1e-3), 1.0)
+        eye = (self.damping**2 * ratio)[:, None, None] * self._eye
+        step = (JT @ np.linalg.solve(J @ JT + eye, err[..., None]))[..., 0]
+        if not self._clip.size:
+            return step
+        q, pushed = Q[:, self._clip], step[:, self._clip_v]
+        blocked_v = ((q <= self._lower_margin) & (pushed < 0)) | ((q >= self._upper_margin) & (pushed > 0))
+        rows = blocked_v.any(axis=1)
+        if rows.any():
+            free = np.ones((int(rows.sum()), J.shape[2]))
+            free[:, self._clip_v] = ~blocked_v[rows]
+            Jf = J[rows] * free[:, None, :]
+            JfT = np.ascontiguousarray(np.swapaxes(Jf, 1, 2))
+            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + eye[rows], err[rows][..., None]))[..., 0]
+        return step
+
+    def solve(
+        self, genes: Array, branch: NDArray[np.int_], target: object, q_seed: Array | None = None
+    ) -> tuple[Array, NDArray[np.bool_]]:
+        """Project genes ``(B, nv)`` [rad] onto the target's self-motion manifold.
+
+        Args:
+            genes: joint-angle vectors [rad] (clipped to the gene bounds, periodic ones wrapped).
+            branch: ignored beyond validation (single branch 0).
+            target: hand position ``(3,)`` [m] (``(2,)`` for a planar task), or a pose for a pose task.
+            q_seed: optional ``(B, nq)`` start configurations (warm start); default: the genes.
+
+        Returns:
+            ``Q`` ``(B, nq)`` within the joint limits, ``reachable`` ``(B,)``: residual below tolerance.
+        """
+        G = self._checked_genes(genes, branch)
+        return self._project(G, [self._goal(target)], np.zeros(G.shape[0], dtype=int), q_seed)
+
+    def solve_many(
+        self, genes: Array, branch: NDArray[np.int_], targets: Sequence[object], groups: object
+    ) -> tuple[Array, NDArray[np.bool_]]:
+        """:meth:`solve` for rows aimed at different targets: row ``b`` goes to ``targets[groups[b]]``.
+
+        Row for row the same result as :meth:`solve` on each group (rows never interact), in one
+        iteration whose per-step overhead is paid once: the preview controller projects the
+        populations of all its imaginary arms together.
+
+        Raises:
+            ConfigurationError: ``groups`` not one index in ``[0, len(targets))`` per row.
+        """
+        G = self._checked_genes(genes, branch)
+        index = np.asarray(groups)
+        if (index.shape != (G.shape[0],) or not np.issubdtype(index.dtype, np.integer)
+                or (index.size and (index.min() < 0 or index.max() >= len(targets)))):
+            raise ConfigurationError(
+                f"groups must hold one target index in [0, {len(targets)}) per gene row ({G.shape[0]}), "
+                f"got {show(groups)}"
+            )
+        return self._project(G, [self._goal(target) for target in targets], index, None)
+
+    def _checked_genes(self, genes: Array, branch: NDArray[np.int_]) -> Array:
+        G, _ = check_genes(genes, branch, self.robot.nv, self.branches)
+        return np.where(self.periodic, wrap_angle(G), np.clip(G, self.gene_lower, self.gene_upper))
+
+    def _goal(self, target: object) -> Target:
+        goal = parse_target(target, self.robot)
+        if goal.planar and self.m == 3:
+            raise ConfigurationError(
+                f"robot {self.robot.name!r} has a {self.robot.task} task: the target needs 3 coordinates [m], "
+                f"got {goal.position[:2].tolist()}"
+            )
+        return goal
+
+    def _project(
+        self, G: Array, goals: list[Target], groups: NDArray[np.int_], q_seed: Array | None
+    ) -> tuple[Array, NDArray[np.bool_]]:
+        """Damped Newton from the genes ``G`` (or ``q_seed``), row ``b`` toward ``goals[groups[b]]``."""
+        pose = goals[0].rotation is not None
+        if any((goal.rotation is not None) != pose for goal in goals):
+            raise ConfigurationError("targets mix poses and positions; give all of them the same form")
+        goal_positions = np.array([goal.position for goal in goals])[groups]
+        goal_rotations = np.array([goal.rotation for goal in goals])[groups] if pose else None
+        anchor = self.configurations(G)
+        if q_seed is None:
+            Q = anchor.copy()
+        else:
+            Q, _ = self.robot.check_configurations(q_seed)
+            if Q.shape[0] != G.shape[0]:
+                raise ConfigurationError(f"q_seed has {Q.shape[0]} rows, genes {G.shape[0]}")
+            Q = Q.copy()
+        B, m = G.shape[0], self.m
+        model = self.model
+        active = np.arange(B)
+        reachable = np.zeros(B, dtype=bool)
+        for iteration in range(self.iterations + 1):
+            placements, jacobians = self._hand(Q[active])
+            J = jacobians[:, self.rows]
+            err = self._task_error(
+                goal_positions[active],
+                None if goal_rotations is None else goal_rotations[active],
+                placements[:, :3, 3],
+                placements[:, :3, :3],
+            )
+            done = self._converged(err)
+            reachable[active[done]] = True
+            keep = ~done
+            active, J, err = active[keep], J[keep], err[keep]
+            if active.size == 0 or iteration == self.iterations:
+                break
+            norm = _row_norm(err[:, :3] if m >= 3 else err)[:, None]
+            err = err * np.minimum(1.0, self.max_step / np.maximum(norm, 1e-300))
+            step = self._step(J, err, Q[active])
+            if self._vector_space:
+                Q[active] = self._clip_limits(Q[active] + step)
+            else:
+                moved = np.stack([pin.integrate(model, Q[b], step[i]) for i, b in enumerate(active)])
+                Q[active] = self._clip_limits(moved)
+        return Q, reachable
+
+
+def _row_norm(x: Array) -> Array:
+    """Euclidean norm of each row of ``(A, k)`` (what ``np.linalg.norm(x, axis=1)`` computes, with
+    less overhead: this runs several times per Newton step on small batches)."""
+    return np.asarray(np.sqrt(np.add.reduce(x * x, axis=1)))

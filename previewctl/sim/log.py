@@ -1,0 +1,202 @@
+"""TODO docstring: sim.log."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.errors import PreviewctlError
+from previewctl.files import atomic_write, atomic_write_bytes
+from previewctl.types import Array
+
+NPZ_NAME = "run.npz"
+SUMMARY_NAME = "summary.json"
+
+_ARRAYS = ("t", "q", "qdot", "qdot_requested", "hand", "desired", "hand_error", "S", "amsi", "link_distances",
+           "min_distance", "collision", "cycle_time", "frame_due", "velocity_scale", "velocity_limits",
+           "targets", "target_S")
+
+
+@dataclass(frozen=True, eq=False)
+class RunResult:
+    """The log of one simulated run (``T`` logged steps).
+
+    Attributes:
+        scenario: scenario name.
+        controller: controller name.
+        robot: robot name.
+        dt: control period [s].
+        joint_names: joint names, in ``q`` order.
+        link_names: guarded link names, in ``link_distances`` column order.
+        t: ``(T,)`` times [s].
+        q: ``(T, nq)`` configurations [rad].
+        qdot: ``(T, nv)`` applied joint velocities [rad/s] (0 on a colliding last step).
+        qdot_requested: ``(T, nv)`` joint velocities before the limits [rad/s].
+        hand: ``(T, 3)`` hand position [m].
+        desired: ``(T, 3)`` desired hand position [m] (z = 0 for planar paths).
+        hand_error: ``(T,)`` hand position error ``|r_d − r|`` [m] (over the task's position rows).
+        S: ``(T,)`` AMSIP (exact geometry).
+        amsi: ``(T,)`` AMSI ``E``.
+        link_distances: ``(T, L)`` clearance per guarded link [m] (``inf`` without obstacles).
+        min_distance: ``(T,)`` smallest clearance [m].
+        collision: ``(T,)`` exact collision flag.
+        cycle_time: ``(T,)`` wall time of each control cycle (kinematics + command) [s].
+        frame_due: ``(T,)`` whether a camera frame arrived at the step.
+        velocity_scale: ``(T,)`` uniform velocity-limit scaling applied (1 = unlimited).
+        velocity_limits: ``(nv,)`` joint speed limits used [rad/s] (``inf`` = none).
+        targets: ``(T, p, nq)`` the imaginary arms ``q~_i`` the controller steered toward (``p = 0``
+            without previews; NaN where no command was computed, e.g. the colliding step).
+        target_S: ``(T, p)`` their AMSIP values.
+    """
+
+    scenario: str
+    controller: str
+    robot: str
+    dt: float
+    joint_names: tuple[str, ...]
+    link_names: tuple[str, ...]
+    t: Array
+    q: Array
+    qdot: Array
+    qdot_requested: Array
+    hand: Array
+    desired: Array
+    hand_error: Array
+    S: Array
+    amsi: Array
+    link_distances: Array
+    min_distance: Array
+    collision: NDArray[np.bool_]
+    cycle_time: Array
+    frame_due: NDArray[np.bool_]
+    velocity_scale: Array
+    velocity_limits: Array
+    targets: Array
+    target_S: Array  # noqa: N815 -- the paper's symbol S
+
+    @property
+    def steps(self) -> int:
+        """Number of logged steps ``T``."""
+        return int(self.t.shape[0])
+
+    @property
+    def collision_index(self) -> int | None:
+        """Index of the first colliding step, or ``None``."""
+        hits = np.flatnonzero(self.collision)
+        return int(hits[0]) if hits.size else None
+
+    def summary(self) -> dict[str, Any]:
+        """Key figures of the run (JSON-ready: floats, ints, bools, strings, ``None``).
+
+        Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``collided``,
+        ``collision_time`` [s], ``collision_link``, ``max_hand_error`` [m], ``min_clearance`` [m]
+        (``None`` without obstacles), ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s],
+        ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``), ``cycle_time_median`` [s], ``cycle_time_max`` [s].
+        """
+        k = self.collision_index
+        link = None
+        if k is not None:
+            link = self.link_names[int(np.argmin(self.link_distances[k]))] if self.link_names else None
+        finite = np.isfinite(self.velocity_limits)
+        ratio = np.abs(self.qdot[:, finite]) / self.velocity_limits[finite] if finite.any() else np.zeros((1, 1))
+        clearance = float(self.min_distance.min()) if self.steps else math.inf
+        return {
+            "scenario": self.scenario,
+            "controller": self.controller,
+            "robot": self.robot,
+            "steps": self.steps,
+            "duration": float(self.t[-1] - self.t[0]) if self.steps else 0.0,
+            "collided": k is not None,
+            "collision_time": float(self.t[k]) if k is not None else None,
+            "collision_link": link,
+            "max_hand_error": float(self.hand_error.max()),
+            "min_clearance": clearance if math.isfinite(clearance) else None,
+            "mean_S": float(self.S.mean()),
+            "min_S": float(self.S.min()),
+            "max_abs_qdot": float(np.abs(self.qdot).max()),
+            "max_qdot_ratio": float(ratio.max()) if ratio.size else 0.0,
+            "cycle_time_median": float(np.median(self.cycle_time)),
+            "cycle_time_max": float(self.cycle_time.max()),
+        }
+
+
+# ------------------------------------------------------------------------------------ saving
+
+
+def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """Write ``run.npz`` (every array and the names) and ``summary.json`` into ``out_dir``.
+
+    Each file is written atomically: a reader sees either the old file or the complete new one.
+
+    Returns:
+        The two paths ``(npz, json)``.
+
+    Raises:
+        PreviewctlError: the folder cannot be created or written.
+    """
+    folder = Path(out_dir)
+    npz_path, json_path = folder / NPZ_NAME, folder / SUMMARY_NAME
+    arrays: dict[str, Any] = {name: getattr(result, name) for name in _ARRAYS}
+    arrays.update(
+        joint_names=np.array(result.joint_names, dtype=str),
+        link_names=np.array(result.link_names, dtype=str),
+        scenario=np.array(result.scenario),
+        controller=np.array(result.controller),
+        robot=np.array(result.robot),
+        dt=np.array(result.dt),
+    )
+    text = json.dumps(result.summary(), indent=2) + "\n"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write(npz_path, lambda handle: np.savez_compressed(handle, **arrays))
+        atomic_write_bytes(json_path, text.encode("utf-8"))
+    except OSError as exc:
+        raise PreviewctlError(f"cannot write the run to {str(folder)!r}: {exc}") from exc
+    return npz_path, json_path
+
+
+def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
+    """Reload a run written by :func:`save_run`.
+
+    Raises:
+        PreviewctlError: missing or unreadable files.
+    """
+    folder = Path(out_dir)
+    npz_path = folder / NPZ_NAME
+    if not npz_path.is_file():
+        raise PreviewctlError(f"no run in {str(folder)!r}: {NPZ_NAME} is missing")
+    try:
+        with np.load(npz_path, allow_pickle=False) as npz:
+            stored = {name: npz[name] for name in npz.files}
+    except (OSError, ValueError) as exc:
+        raise PreviewctlError(f"cannot read {str(npz_path)!r}: {exc}") from exc
+    names = {f.name for f in fields(RunResult)}
+    missing = sorted(names - set(stored))
+    if missing:
+        raise PreviewctlError(f"{str(npz_path)!r} lacks {', '.join(missing)}")
+    return RunResult(
+        scenario=str(stored["scenario"]),
+        controller=str(stored["controller"]),
+        robot=str(stored["robot"]),
+        dt=float(stored["dt"]),
+        joint_names=tuple(str(n) for n in stored["joint_names"]),
+        link_names=tuple(str(n) for n in stored["link_names"]),
+        **{name: stored[name] for name in _ARRAYS},
+    )
+
+
+def load_summary(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """The ``summary.json`` of a saved run."""
+    path = Path(out_dir) / SUMMARY_NAME
+    try:
+        loaded: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise PreviewctlError(f"cannot read {str(path)!r}: {exc}") from exc
+    return loaded
