@@ -1,7 +1,7 @@
 """Speed of the redundancy search.
 
 1. planar4, the full 1 deg grid over (q1, q2) x 2 elbow branches (259,200 candidates) through
-   :func:`previewctl.search.explore`, against a straightforward loop that solves and evaluates one
+   :func:`previewctl.search.explore.explore`, against a straightforward loop that solves and evaluates one
    configuration at a time (closed-form solve, then ``Evaluator(method="general")``: Pinocchio + Coal,
    the way one would write it without vectorising). The loop runs over a random subset of the grid and
    is extrapolated to the full grid (said so in the output).

@@ -1,4 +1,4 @@
-"""TODO docstring: kinematics."""
+"""Kinematics computed once per configuration batch: hand and control-point positions and Jacobians."""
 
 from __future__ import annotations
 

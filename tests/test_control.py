@@ -249,7 +249,7 @@ class FakeCandidate:
 
 
 class FakeGA:
-    """A stand-in for ``previewctl.search.OneStepGA``: ``step`` returns a fixed candidate."""
+    """A stand-in for ``previewctl.search.ga.OneStepGA``: ``step`` returns a fixed candidate."""
 
     def __init__(self, q: Array, S: float = 100.0) -> None:
         self.candidate = FakeCandidate(np.zeros(2), 0, np.array(q, dtype=float), S)

@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.motion`: obstacle motions and building them from tables."""
+"""Tests of :mod:`previewctl.scene.motion`: obstacle motions and building them from tables."""
 
 # The constructors accept any array-like (lists included); some tests pass bad types on purpose.
 # mypy: disable-error-code="arg-type"

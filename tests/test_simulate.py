@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.simulate` and :mod:`previewctl.viz`: the loop, collisions, saving, figures."""
+"""Tests of :mod:`previewctl.simulate` and :mod:`previewctl.viz.figures`: the loop, collisions, saving, figures."""
 
 from __future__ import annotations
 

@@ -1,1 +1,1 @@
-"""TODO: cli."""
+"""The ``previewctl`` command line: one module per command."""

@@ -1,4 +1,4 @@
-"""TODO docstring: cli.common."""
+"""What the commands share: the argument parser that exits 2 on bad input, vector parsing, progress display."""
 
 from __future__ import annotations
 

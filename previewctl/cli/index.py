@@ -1,4 +1,4 @@
-"""TODO docstring: cli.index."""
+"""``previewctl index``: avoidance manipulability and AMSIP of one configuration."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: cli.map."""
+"""``previewctl map``: global AMSIP map over the redundancy space of a hand target."""
 
 from __future__ import annotations
 

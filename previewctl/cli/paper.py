@@ -1,4 +1,4 @@
-"""TODO docstring: cli.paper."""
+"""``previewctl paper``: the paper's planar experiment with every controller (the main job)."""
 
 from __future__ import annotations
 

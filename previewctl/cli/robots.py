@@ -1,4 +1,4 @@
-"""TODO docstring: cli.robots."""
+"""``previewctl robots``: list the robot names that load."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: cli.run."""
+"""``previewctl run``: simulate a scenario file and write its log and figures."""
 
 from __future__ import annotations
 

@@ -1,1 +1,27 @@
-"""TODO: control."""
+"""Resolved-rate control of the hand with a null-space input (paper eq. 19) and its preview modes.
+
+Every controller computes the joint velocity of eq. 19 with hand-position feedback,
+
+    q̇ = J#(ṙ_d + K_p (r_d − r)) + (I − J⁺J) v,
+
+and differs only in the null-space input ``v``:
+
+* ``none``: ``v = 0`` (minimum-norm tracking);
+* ``gradient``: ``v = K_g ∇_q S`` (local null-space ascent of the AMSIP; ``∇S`` by central finite
+  differences of the :class:`~previewctl.index.evaluator.Evaluator`, one batch of ``2 nv`` configurations);
+* ``single`` (eq. 20): ``v = K_v (q̃(t + t̃) − q)``;
+* ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
+* ``reach`` (Fig. 3): a route of peaks, one per future time, that the arm can move through
+  with the best total S (:mod:`previewctl.control.reach`).
+
+``with_gradient`` (off by default; not in the paper) adds the local ascent ``K_g ∇_q S`` of
+``gradient`` to the null-space input of ``single`` and ``multi``. The preview pull heads for the
+imaginary arms' optima, which on a spatial arm may lie radians away. The local term keeps the
+current configuration clear of an obstacle meanwhile.
+
+The preview modes get their imaginary arms ``q̃`` from a 1-step GA (:mod:`previewctl.search.ga`), one per
+preview time, which runs one generation per camera frame.
+
+Build one with :func:`previewctl.control.factory.make_controller`; eq. 19 itself is in
+:mod:`previewctl.control.tracking`.
+"""

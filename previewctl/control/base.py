@@ -1,4 +1,4 @@
-"""TODO docstring: control.base."""
+"""The controller interface: the state a controller reads, the command it returns, and what it reports."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: control.gradient."""
+"""The ``gradient`` controller: local null-space ascent of the AMSIP, ``v = K_g grad_q S``."""
 
 from __future__ import annotations
 

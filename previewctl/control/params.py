@@ -1,4 +1,4 @@
-"""TODO docstring: control.params."""
+"""Controller names and parameters: gains, preview times and weights (eqs. 20-21), GA settings."""
 
 from __future__ import annotations
 

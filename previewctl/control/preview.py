@@ -1,4 +1,4 @@
-"""TODO docstring: control.preview."""
+"""Single- and multi-preview control (eqs. 20-21): the arm is pulled toward imaginary arms' optima at future times."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ class CandidateLike(Protocol):
 
 @runtime_checkable
 class SearchLike(Protocol):
-    """The interface of :class:`previewctl.search.OneStepGA` that the preview controller uses."""
+    """The interface of :class:`previewctl.search.ga.OneStepGA` that the preview controller uses."""
 
     def step(self, target: Array, t: float) -> Any:
         """Run one generation against hand target ``target`` at time ``t`` [s]; return the best candidate."""
@@ -48,7 +48,7 @@ class SearchLike(Protocol):
 def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequence[float]) -> list[Any]:
     """One generation of ``searches[i]`` toward the hand target ``path.position(times[i])`` at
     ``times[i]`` [s]; their best candidates. 1-step GAs run through
-    :func:`previewctl.search.step_together` (same result, one shared Newton projection)."""
+    :func:`previewctl.search.ga.step_together` (same result, one shared Newton projection)."""
     targets = [np.asarray(path.position(t_i), dtype=float) for t_i in times]
 
     if all(isinstance(search, OneStepGA) for search in searches):

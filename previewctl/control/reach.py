@@ -1,4 +1,4 @@
-"""TODO docstring: control.reach."""
+"""The ``reach`` controller (Fig. 3): a route of peaks through the future that the arm can move through."""
 
 from __future__ import annotations
 

@@ -1,4 +1,35 @@
-"""TODO docstring: control.tracking."""
+"""Eq. 19 as built: damped resolved-rate tracking of the hand with a null-space input ``v``,
+
+    q̇ = J#(ṙ_d + K_p (r_d − r)) + (I − J⁺J) v.
+
+Details:
+
+* ``J`` is the task Jacobian (planar: 2 rows, position: 3, pose: 6 -- linear then angular, world
+  aligned). For a pose task the error is ``[p_d − p; log3(R_d Rᵀ)]`` and ``ṙ_d = [ṗ_d; 0]``.
+* ``J#`` is a damped least-squares inverse: with ``J = U Σ Vᵀ`` and ``σ_min`` its smallest singular
+  value, ``J# = V diag(σ / (σ² + λ²)) Uᵀ`` where
+
+      λ² = 0                                   if σ_min ≥ ε,
+      λ² = (1 − (σ_min / ε)²) λ_max²           otherwise                (Maciejewski & Klein),
+
+  ``ε = singular_threshold`` [m/rad] and ``λ_max = damping`` [m/rad]. Away from singularities this is
+  the exact pseudo-inverse; near one the damping grows smoothly and keeps ``q̇`` bounded.
+* The null-space projector ``N = I − J⁺J`` uses the *undamped* pseudo-inverse, so ``J N v = 0``
+  exactly: the null-space term never moves the hand.
+* Task priority: the null-space term is first scaled by the largest ``α`` in [0, 1] for which
+  ``q̇_task + α N v`` respects the speed limits (``α = 0`` if ``q̇_task`` alone does not), so the
+  avoidance motion never slows the hand down; ``α`` is reported as ``null_scale``.
+* Limits, in this order: (1) position limits -- each ``q̇_j`` is clamped to
+  ``[(lo_j − q_j)/dt, (hi_j − q_j)/dt]`` so that ``q + q̇ dt`` stays within the limits (joints with
+  ``nq = nv`` and finite limits only); (2) velocity limits -- the whole ``q̇`` is scaled by
+  ``s = min(1, min_j q̇max_j / |q̇_j|)``, which keeps its direction and never raises ``|q̇_j|`` above
+  ``velocity_scale · q̇max_j``. A non-finite or non-positive URDF speed limit counts as no limit.
+  Scaling after clamping keeps the position bounds (the interval contains 0).
+* For the preview modes the configuration error is taken in the tangent space,
+  ``v = K_v Σ_i k_i (q̃_i ⊖ q)`` (``pin.difference``), which equals eq. 21 for ordinary joints because
+  ``Σ k_i = 1``; for revolute joints whose range spans a full turn or more, each difference is
+  wrapped into ``(−π, π]`` (the same physical target, reached the short way).
+"""
 
 from __future__ import annotations
 

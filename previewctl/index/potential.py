@@ -1,4 +1,4 @@
-"""TODO docstring: index.potential."""
+"""The obstacle potential ``U <= 0`` of AMSIP (eq. 18; the paper defers its shape to its ref. [8])."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: planar.chain."""
+"""Closed-form description of a planar arm of revolute z joints, built once when the robot is loaded."""
 
 from __future__ import annotations
 

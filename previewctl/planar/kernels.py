@@ -1,4 +1,4 @@
-"""TODO docstring: planar.kernels."""
+"""Closed-form distance kernels for the obstacles a planar arm can meet in its plane (else ``None``: use Coal)."""
 
 from __future__ import annotations
 

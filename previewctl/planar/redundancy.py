@@ -1,4 +1,4 @@
-"""TODO docstring: planar.redundancy."""
+"""The planar redundancy map: genes (q1 .. q(n-2)) and an elbow branch, the last two joints in closed form."""
 
 from __future__ import annotations
 

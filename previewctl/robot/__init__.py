@@ -1,1 +1,1 @@
-"""TODO: robot."""
+"""Robots from URDF: the loaded arm (:class:`Robot`), its loading and its collision geometry."""

@@ -1,4 +1,4 @@
-"""TODO docstring: robot.geometry."""
+"""Collision geometry of a loaded arm: guarded-link selection and the convex / capsule / mesh covers."""
 
 from __future__ import annotations
 

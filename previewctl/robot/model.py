@@ -1,4 +1,4 @@
-"""TODO docstring: robot.model."""
+"""The loaded arm: a reduced Pinocchio model with its task, control points, guarded links and joint facts."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: scene.clearance."""
+"""Per-link clearance of a batch of configurations against a scene (Coal through Pinocchio's geometry layer)."""
 
 from __future__ import annotations
 

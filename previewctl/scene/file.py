@@ -1,6 +1,6 @@
 """Obstacles, scenes that move, and arm-obstacle distances through Pinocchio's geometry layer (Coal).
 
-A :class:`Scene` is a tuple of :class:`Obstacle`, each a Coal shape plus a :mod:`previewctl.motion`
+A :class:`Scene` is a tuple of :class:`Obstacle`, each a Coal shape plus a :mod:`previewctl.scene.motion`
 (static by default), so the scene can be asked for its state at any time. :class:`Clearance` puts
 the robot's guarded geometry and the obstacles into one ``pin.GeometryModel`` with one collision pair
 per (guarded geometry, obstacle); ``pin.computeDistances`` then does all pairs in one C++ call.
@@ -86,7 +86,7 @@ def obstacle_from_dict(spec: Mapping[str, object], where: str, base_dir: Path = 
     """Build one obstacle from a TOML table.
 
     Example: ``{"name": "ball", "shape": "sphere", "radius": 0.1, "position": [0.4, 0.5, 0]}``; a
-    moving one has a ``motion`` sub-table instead of ``position``/``rpy`` (see :mod:`previewctl.motion`).
+    moving one has a ``motion`` sub-table instead of ``position``/``rpy`` (see :mod:`previewctl.scene.motion`).
     """
     if not isinstance(spec, Mapping):
         raise SceneError(f"{where} must be a table, got {spec!r}")

@@ -1,4 +1,4 @@
-"""TODO docstring: scene.shapes."""
+"""Obstacle shapes (frozen, self-validating value objects), :class:`Obstacle` and :class:`Scene`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: search.explore."""
+"""Global exploration (the paper's Table 3): a dense grid or Halton samples over the redundancy space."""
 
 from __future__ import annotations
 
@@ -116,14 +116,14 @@ def explore(
     Args:
         robot: the arm.
         evaluator: AMSIP evaluator (robot, scene, index, potential).
-        target: hand target (see :func:`previewctl.redundancy.parse_target`).
+        target: hand target (see :func:`previewctl.search.redundancy.parse_target`).
         t: time [s] at which the obstacles are placed.
         resolution_deg: grid step [deg] (maps with 1 or 2 genes).
         samples: number of Halton samples of the genes for maps with more genes (default: 65,536 for the
             vectorised planar map, 1,024 for the Newton map); ignored on a grid.
         top_k: the most peaks to report.
         rng: random shift of the Halton sequence (``None``: unshifted, deterministic).
-        redundancy: the map (default :func:`~previewctl.redundancy.redundancy_map`).
+        redundancy: the map (default :func:`~previewctl.search.maps.redundancy_map`).
         min_separation: least joint-space distance [rad] between two reported peaks.
 
     Returns:

@@ -1,4 +1,4 @@
-"""TODO docstring: search.genes."""
+"""The gene space shared by exploration and the GA: Halton samples, periodic genes, distinct peaks, candidates."""
 
 from __future__ import annotations
 

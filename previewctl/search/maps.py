@@ -1,4 +1,4 @@
-"""TODO docstring: search.maps."""
+"""Choosing the redundancy map of a robot (closed form for planar arms, Newton otherwise) and reading joint angles."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO docstring: search.newton."""
+"""The general redundancy map: free genes, then damped Newton steps onto ``f(q) = x`` within joint limits."""
 
 from __future__ import annotations
 
@@ -117,7 +117,7 @@ class NewtonRedundancy:
         """Hand placements ``(A, 4, 4)`` and world-aligned Jacobians ``(A, 6, nv)`` (linear rows first).
 
         One ``computeFrameJacobian`` per row: for the hand frame alone this beats the batched assembly
-        of :class:`~previewctl.avoidance.FrameKinematics`, whose fixed numpy cost dominates the small
+        of :class:`~previewctl.kinematics.FrameKinematics`, whose fixed numpy cost dominates the small
         batches of the late Newton passes.
         """
         model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement

@@ -1,4 +1,4 @@
-"""TODO docstring: search.scoring."""
+"""Scoring genes: solve them on the self-motion manifold and evaluate AMSIP (eq. 18) on the reachable ones."""
 
 from __future__ import annotations
 

@@ -1,1 +1,1 @@
-"""TODO: sim."""
+"""Simulation: scenarios (TOML), the closed loop, and the run log."""

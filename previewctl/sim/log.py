@@ -1,4 +1,4 @@
-"""TODO docstring: sim.log."""
+"""The run log (:class:`RunResult`), its summary, and atomic saving and loading (``run.npz`` + ``summary.json``)."""
 
 from __future__ import annotations
 

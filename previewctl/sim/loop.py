@@ -3,7 +3,7 @@
 The loop, with control period ``dt`` and camera frame period ``T_f`` (33 ms by default):
 
 1. at ``t_k = k dt`` the state is checked exactly: AMSIP, per-link clearance and collision from an
-   :class:`~previewctl.amsip.Evaluator` on the robot loaded with ``geometry="mesh"`` (the exact URDF
+   :class:`~previewctl.index.evaluator.Evaluator` on the robot loaded with ``geometry="mesh"`` (the exact URDF
    geometry; for planar4 the same cylinders);
 2. a collision stops the run there (unless ``stop_on_collision=False``); the colliding step is the
    last row of the log, with ``q̇ = 0``;

@@ -23,7 +23,7 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
 
     [controller]
     name = "multi"                 # none | gradient | single | multi | reach
-    gain = 1.0                     # K_v [1/s]; see previewctl.control.ControllerParams for every key
+    gain = 1.0                     # K_v [1/s]; see previewctl.control.params.ControllerParams for every key
     preview_time = 5.0             # t~ [s]
     weights = [0.3, 0.65, 0.05]    # k_i: 0 < k_i < 1, sum 1
 
@@ -97,7 +97,7 @@ _OUTPUT_KEYS = ("figures", "gif", "strobe_poses")
 class RobotSpec:
     """How the scenario's robot was loaded (to reload it, e.g. with exact meshes).
 
-    Attributes mirror :func:`previewctl.robot.load_robot`'s arguments.
+    Attributes mirror :func:`previewctl.robot.load.load_robot`'s arguments.
     """
 
     source: str

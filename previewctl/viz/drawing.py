@@ -1,4 +1,4 @@
-"""Shared by the figures of :mod:`previewctl.viz` (runs) and :mod:`previewctl.viz_map` (landscapes):
+"""Shared by the figures of :mod:`previewctl.viz.figures` (runs) and :mod:`previewctl.viz.landscapes` (landscapes):
 matplotlib on the Agg backend, the arm's joint polyline and obstacle sections by the arm's plane.
 """
 

@@ -9,7 +9,7 @@ Matplotlib is imported inside the functions (Agg backend), so importing this mod
 * :func:`plot_surface` -- the 3-D surface of ``max over branches S(q1, q2)`` (grid landscapes).
 
 The obstacles are drawn as their sections by the plane ``z = 0``
-(:func:`previewctl.drawing.obstacle_section`).
+(:func:`previewctl.viz.drawing.obstacle_section`).
 """
 
 from __future__ import annotations
@@ -125,7 +125,7 @@ def plot_landscape(
     """Write the AMSIP map(s) and the arm at the best configuration to a PNG.
 
     Args:
-        landscape: from :func:`previewctl.search.explore`.
+        landscape: from :func:`previewctl.search.explore.explore`.
         robot: the arm.
         scene: the obstacles (drawn at ``landscape.t``).
         path: output PNG file.
