@@ -100,6 +100,12 @@ class ControllerParams:
         fd_step: finite-difference step of ``∇S`` [rad].
         ga_options: further keyword arguments for the GA, as ``(name, value)`` pairs.
         with_gradient: ``single``/``multi`` also add ``K_g ∇S`` (``gradient_gain``) to ``v``.
+        coherent: ``single``/``multi`` keep each imaginary arm on one tracked peak of the arm's own elbow
+            branch and ramp the pull in (:mod:`previewctl.control.peaks`); ``False`` is the paper's
+            literal eq. 20/21 (each frame's argmax of each imaginary arm, any branch).
+        hysteresis: relative S margin by which another peak must beat the tracked one to take over.
+        settle_frames: camera frames over which the pull is ramped in after a change of peak.
+        track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
     """
 
     gain: tuple[float, ...] = (1.0,)
@@ -117,6 +123,10 @@ class ControllerParams:
     fd_step: float = 1e-4
     ga_options: tuple[tuple[str, Any], ...] = field(default=())
     with_gradient: bool = False
+    coherent: bool = True
+    hysteresis: float = 0.2
+    settle_frames: int = 15
+    track_radius: float = 0.5
 
     def __post_init__(self) -> None:
         """Validate every field.
@@ -140,6 +150,11 @@ class ControllerParams:
         _positive(self.fd_step, "fd_step")
         if not isinstance(self.with_gradient, bool):
             raise ConfigurationError(f"with_gradient must be true or false, got {self.with_gradient!r}")
+        if not isinstance(self.coherent, bool):
+            raise ConfigurationError(f"coherent must be true or false, got {self.coherent!r}")
+        _positive(self.hysteresis, "hysteresis", allow_zero=True)
+        _count(self.settle_frames, "settle_frames", 1)
+        _positive(self.track_radius, "track_radius")
         if self.elite >= self.population:
             raise ConfigurationError(f"elite ({self.elite}) must be smaller than population ({self.population})")
 

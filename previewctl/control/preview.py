@@ -11,12 +11,16 @@ import pinocchio as pin
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.gradient import GradientController
 from previewctl.control.params import ControllerParams
+from previewctl.control.peaks import PeakTracker
 from previewctl.control.tracking import gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
+from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
+from previewctl.search.genes import joint_periodic
+from previewctl.search.maps import joint_angles
 from previewctl.types import Array
 
 
@@ -56,12 +60,15 @@ def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequenc
     return [search.step(target, t_i) for search, target, t_i in zip(searches, targets, times, strict=True)]
 
 
-def wrapped_difference(robot: Robot, q: Array, target: Array) -> Array:
-    """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more."""
+def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int, ...] = ()) -> Array:
+    """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more,
+    except the velocity indices in ``keep`` (their plain difference is kept)."""
     diff: Array = np.array(pin.difference(robot.model, q, target), dtype=np.float64)
     model = robot.model
     lo, hi = robot.lower_limits, robot.upper_limits
     for j in range(1, model.njoints):
+        if model.joints[j].idx_v in keep:
+            continue
         joint = model.joints[j]
         if joint.nq == 1 and joint.nv == 1 and joint.shortname().startswith(("JointModelR", "JointModelRevolute")):
             iq, iv = joint.idx_q, joint.idx_v
@@ -116,6 +123,19 @@ class PreviewController:
             self._local = GradientController(robot, evaluator, params)
         self._targets: Array | None = None
         self._target_amsip: Array | None = None
+        self._ramp = np.ones(len(self.searches))
+        self._coherent = params.coherent
+        self._trackers = [
+            PeakTracker(
+                lambda Q: joint_angles(robot, Q), joint_periodic(robot),
+                track_radius=params.track_radius, hysteresis=params.hysteresis, settle_frames=params.settle_frames,
+            )
+            for _ in self.searches
+        ]
+        self._branches = PlanarRedundancy(robot) if params.coherent and robot.planar is not None else None
+        # The planar elbow joint is never wrapped: within one branch its plain difference is the way that
+        # does not pass through the unreachable folded wrist (q_n = ±π).
+        self._keep = (robot.nv - 1,) if self._branches is not None else ()
 
     @property
     def preview_times(self) -> Array:
@@ -126,12 +146,27 @@ class PreviewController:
         if self._targets is None:
             for search in self.searches:
                 search.seed(np.array(q, dtype=float))
+        if self._branches is not None:
+            branch = int(self._branches.genes_of(np.asarray(q, dtype=float)[None])[1][0])
+            for search in self.searches:
+                if isinstance(search, OneStepGA):
+                    search.branch_lock = branch
         targets, values = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
         times = [t + float(offset) for offset in self.preview_times]
         for i, best in enumerate(step_searches(self.searches, path, times)):
             targets[i], values[i] = np.asarray(best.q, dtype=float), float(best.S)
+            if self._coherent:
+                self._track(i, best, targets, values)
         self._targets, self._target_amsip = targets, values
         return targets, values
+
+    def _track(self, i: int, best: Any, targets: Array, values: Array) -> None:
+        """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode)."""
+        peak = self._trackers[i].update([best, *self.searches[i].peaks()])
+        if peak is not None:
+            targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
+        elif self._targets is not None:  # nothing feasible this frame: keep the last target, pull off
+            targets[i], values[i], self._ramp[i] = self._targets[i], self._target_amsip[i], 0.0  # type: ignore[index]
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
@@ -140,8 +175,8 @@ class PreviewController:
         else:
             targets, values = self._targets, self._target_amsip
         direction = np.zeros(self.robot.nv)
-        for k, target in zip(self.weights, targets, strict=True):
-            direction += k * wrapped_difference(self.robot, q, target)
+        for k, ramp, target in zip(self.weights, self._ramp, targets, strict=True):
+            direction += k * ramp * wrapped_difference(self.robot, q, target, keep=self._keep)
         v = self._gain * direction
         if self._local is not None:
             v = v + self._local.null_space_input(q, t)

@@ -1,0 +1,109 @@
+"""Coherent imaginary arms: each preview time keeps one peak's identity from frame to frame.
+
+The paper's eq. 21 takes every imaginary arm's argmax afresh at each frame. Mirror configurations
+(elbow up / elbow down) tie exactly when no obstacle breaks the tie, and near-ties between distinct
+peaks are common, so the argmax jumps between peaks that the arm cannot move between, and the blend
+``Σ k_i q̃_i`` of targets on different peaks lies on none of them. A :class:`PeakTracker` instead
+follows one peak per imaginary arm:
+
+* the tracked peak is the candidate nearest (in joint space) to the previous target, if one lies
+  within ``track_radius``; otherwise the peak is lost and the nearest surviving candidate is taken
+  (the best one only at the first frame);
+* it changes to another candidate only when that one is better by the factor ``1 + hysteresis``
+  (``S_new > (1 + h) S_tracked``), or when the tracked peak's S is no longer positive;
+* after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
+  camera frames, so the arm does not lunge at a target the search has not settled on.
+
+The search itself is kept on the arm's own family (the elbow branch of a planar arm, see
+:attr:`previewctl.search.ga.OneStepGA.branch_lock`), so every candidate is on the arm's branch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.search.genes import Candidate, joint_distance
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class TrackedPeak:
+    """One imaginary arm's target after a frame.
+
+    Attributes:
+        q: ``(nq,)`` the target configuration [rad].
+        S: its AMSIP.
+        switched: whether the peak changed at this frame (lost, or beaten by the hysteresis margin).
+        ramp: the pull factor in [0, 1] (0 right after a change, 1 once settled).
+    """
+
+    q: Array
+    S: float
+    switched: bool
+    ramp: float
+
+
+class PeakTracker:
+    """Keeps the identity of one imaginary arm's peak between camera frames.
+
+    Args:
+        angles: maps configurations ``(B, nq)`` to joint angles ``(B, nv)`` [rad] for distances.
+        periodic: ``(nv,)`` joints compared modulo 2π.
+        track_radius: largest joint-space move [rad] of a peak between two frames for it to count as
+            the same peak.
+        hysteresis: relative S margin another peak needs to take over (``≥ 0``).
+        settle_frames: frames over which the pull is ramped in after a change (``≥ 1``).
+    """
+
+    def __init__(
+        self,
+        angles: Callable[[Array], Array],
+        periodic: NDArray[np.bool_],
+        *,
+        track_radius: float,
+        hysteresis: float,
+        settle_frames: int,
+    ) -> None:
+        self._angles = angles
+        self._periodic = periodic
+        self.track_radius, self.hysteresis, self.settle_frames = track_radius, hysteresis, settle_frames
+        self._q: Array | None = None
+        self._since_switch = 0
+
+    def update(self, options: Sequence[Candidate]) -> TrackedPeak | None:
+        """Choose this frame's target among ``options`` (the search's best and peaks).
+
+        Returns:
+            The target, or ``None`` if no option has ``S > 0`` (the caller keeps its last target).
+        """
+        valid = [c for c in options if c.S > 0]
+        if not valid:
+            return None
+        best = max(valid, key=lambda c: c.S)
+        nearest, distance = self._nearest(valid)
+        if nearest is None:  # the first frame: the best peak of the arm's family
+            chosen, switched = best, True
+        elif distance > self.track_radius:  # the peak was lost: the nearest surviving one
+            chosen, switched = nearest, True
+        elif (1.0 + self.hysteresis) * nearest.S < best.S:
+            chosen, switched = best, True
+        else:
+            chosen, switched = nearest, False
+        self._since_switch = 0 if switched else self._since_switch + 1
+        self._q = np.array(chosen.q, dtype=float)
+        ramp = min(1.0, self._since_switch / self.settle_frames)
+        return TrackedPeak(self._q.copy(), float(chosen.S), switched, ramp)
+
+    def _nearest(self, valid: Sequence[Candidate]) -> tuple[Candidate | None, float]:
+        """The option nearest to the last target and its joint-space distance [rad]."""
+        if self._q is None:
+            return None, np.inf
+        Q = np.array([c.q for c in valid])
+        to = self._angles(np.vstack([self._q[None], Q]))
+        d = joint_distance(to[1:], to[:1], self._periodic)[:, 0]
+        k = int(np.argmin(d))
+        return valid[k], float(d[k])
