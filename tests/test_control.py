@@ -379,7 +379,7 @@ class FakePeaksGA(FakeGA):
 def reach_setup(planar: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
     """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
     q = np.array(PLANAR_Q0)
     searches, nears = [], []
     for i, S_near in enumerate(near_S, start=1):
