@@ -6,9 +6,10 @@ peaks are common, so the argmax jumps between peaks that the arm cannot move bet
 ``Σ k_i q̃_i`` of targets on different peaks lies on none of them. A :class:`PeakTracker` instead
 follows one peak per imaginary arm:
 
-* the tracked peak is the candidate nearest (in joint space) to the previous target, if one lies
-  within ``track_radius``; otherwise the peak is lost and the nearest surviving candidate is taken
-  (the best one only at the first frame);
+* the tracked peak is the best individual of the imaginary arm's search within ``track_radius`` (in
+  joint space) of the previous target; if none is left, the peak is lost and the nearest surviving
+  individual is taken (the best one only at the first frame). The controller seeds each search with
+  its last target, so the tracked peak stays in the population;
 * it changes to another candidate only when that one is better by the factor ``1 + hysteresis``
   (``S_new > (1 + h) S_tracked``), or when the tracked peak's S is no longer positive;
 * after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
@@ -20,13 +21,13 @@ The search itself is kept on the arm's own family (the elbow branch of a planar 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.search.genes import Candidate, joint_distance
+from previewctl.search.genes import joint_distance
 from previewctl.types import Array
 
 
@@ -74,36 +75,33 @@ class PeakTracker:
         self._q: Array | None = None
         self._since_switch = 0
 
-    def update(self, options: Sequence[Candidate]) -> TrackedPeak | None:
-        """Choose this frame's target among ``options`` (the search's best and peaks).
+    def update(self, Q: Array, S: Array) -> TrackedPeak | None:
+        """Choose this frame's target among a search's individuals ``Q`` ``(B, nq)`` with AMSIP ``S`` ``(B,)``.
+
+        The tracked peak is the best individual within ``track_radius`` of the last target (the local
+        peak's current representative).
 
         Returns:
-            The target, or ``None`` if no option has ``S > 0`` (the caller keeps its last target).
+            The target, or ``None`` if no individual has ``S > 0`` (the caller keeps its last target).
         """
-        valid = [c for c in options if c.S > 0]
-        if not valid:
+        valid = np.flatnonzero(S > 0)
+        if not valid.size:
             return None
-        best = max(valid, key=lambda c: c.S)
-        nearest, distance = self._nearest(valid)
-        if nearest is None:  # the first frame: the best peak of the arm's family
-            chosen, switched = best, True
-        elif distance > self.track_radius:  # the peak was lost: the nearest surviving one
-            chosen, switched = nearest, True
-        elif (1.0 + self.hysteresis) * nearest.S < best.S:
+        Qv, Sv = Q[valid], S[valid]
+        best = int(np.argmax(Sv))
+        if self._q is None:  # the first frame: the best peak of the arm's family
             chosen, switched = best, True
         else:
-            chosen, switched = nearest, False
+            to = self._angles(np.vstack([self._q[None], Qv]))
+            distance = joint_distance(to[1:], to[:1], self._periodic)[:, 0]
+            near = distance <= self.track_radius
+            if not near.any():  # the peak was lost: the nearest surviving individual
+                chosen, switched = int(np.argmin(distance)), True
+            else:
+                tracked = int(np.flatnonzero(near)[np.argmax(Sv[near])])
+                switched = (1.0 + self.hysteresis) * Sv[tracked] < Sv[best]
+                chosen = best if switched else tracked
         self._since_switch = 0 if switched else self._since_switch + 1
-        self._q = np.array(chosen.q, dtype=float)
+        self._q = np.array(Qv[chosen], dtype=float)
         ramp = min(1.0, self._since_switch / self.settle_frames)
-        return TrackedPeak(self._q.copy(), float(chosen.S), switched, ramp)
-
-    def _nearest(self, valid: Sequence[Candidate]) -> tuple[Candidate | None, float]:
-        """The option nearest to the last target and its joint-space distance [rad]."""
-        if self._q is None:
-            return None, np.inf
-        Q = np.array([c.q for c in valid])
-        to = self._angles(np.vstack([self._q[None], Q]))
-        d = joint_distance(to[1:], to[:1], self._periodic)[:, 0]
-        k = int(np.argmin(d))
-        return valid[k], float(d[k])
+        return TrackedPeak(self._q.copy(), float(Sv[chosen]), bool(switched), ramp)

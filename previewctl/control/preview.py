@@ -162,9 +162,16 @@ class PreviewController:
 
     def _track(self, i: int, best: Any, targets: Array, values: Array) -> None:
         """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode)."""
-        peak = self._trackers[i].update([best, *self.searches[i].peaks()])
+        search = self.searches[i]
+        if isinstance(search, OneStepGA):
+            Q, S = search.population_q, search.population_S
+        else:  # a stand-in search: its best and peaks
+            options = [best, *search.peaks()]
+            Q, S = np.array([np.asarray(c.q, dtype=float) for c in options]), np.array([float(c.S) for c in options])
+        peak = self._trackers[i].update(Q, S)
         if peak is not None:
             targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
+            search.seed(peak.q)  # keep the tracked peak in the population
         elif self._targets is not None:  # nothing feasible this frame: keep the last target, pull off
             targets[i], values[i], self._ramp[i] = self._targets[i], self._target_amsip[i], 0.0  # type: ignore[index]
 

@@ -175,6 +175,11 @@ class OneStepGA:
         return self._genes.copy()
 
     @property
+    def population_q(self) -> Array:
+        """``(P, nq)`` configurations of the current population (a copy; unreachable rows are placeholders)."""
+        return self._Q.copy()
+
+    @property
     def population_branch(self) -> NDArray[np.int_]:
         """``(P,)`` branches of the current population (a copy)."""
         return self._branch.copy()
