@@ -32,7 +32,7 @@ def _options(*pairs: tuple[list[float], float]) -> tuple[np.ndarray, np.ndarray]
 
 
 def _tracker(**options: float) -> PeakTracker:
-    settings = {"track_radius": 0.5, "hysteresis": 0.2, "settle_frames": 4, **options}
+    settings = {"track_radius": 0.5, "settle_frames": 4, **options}
     return PeakTracker(lambda Q: Q, np.ones(4, dtype=bool), **settings)  # type: ignore[arg-type]
 
 
@@ -41,42 +41,42 @@ A, B = [0.5, 1.0, -1.0, 0.5], [2.0, -1.0, 1.0, -0.5]  # two peaks far apart in j
 
 def test_peak_identity_survives_a_small_perturbation_of_the_landscape() -> None:
     tracker = _tracker()
-    first = tracker.update(*_options((A, 100.0), (B, 90.0)))
-    assert first is not None and np.allclose(first.q, A)
-    # the landscape shifts a little and B edges ahead by 15 % (< the 20 % hysteresis): keep A's identity
+    first = tracker.update(*_options((A, 100.0), (B, 120.0)), np.array(A) + 0.1)
+    assert first is not None and np.allclose(first.q, A)  # the arm's own basin, not the best peak
+    # the landscape shifts a little and B edges ahead: keep A's identity
     moved = [a + 0.05 for a in A]
-    second = tracker.update(*_options((B, 115.0), (moved, 100.0)))
+    second = tracker.update(*_options((B, 115.0), (moved, 100.0)), np.array(A))
     assert second is not None and np.allclose(second.q, moved) and not second.switched
 
 
-def test_a_peak_better_by_more_than_the_hysteresis_takes_over() -> None:
+def test_a_better_peak_in_another_basin_does_not_take_over() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0), (B, 90.0)))
-    taken = tracker.update(*_options((A, 100.0), (B, 125.0)))
-    assert taken is not None and np.allclose(taken.q, B) and taken.switched
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
+    kept = tracker.update(*_options((A, 100.0), (B, 400.0)), np.array(A))
+    assert kept is not None and np.allclose(kept.q, A) and not kept.switched
 
 
 def test_the_best_individual_near_the_last_target_carries_the_peak() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0), (B, 90.0)))
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
     climbed = [a + 0.2 for a in A]  # within track_radius, and better: the same peak, moved uphill
-    chosen = tracker.update(*_options((A, 100.0), (climbed, 110.0), (B, 120.0)))
+    chosen = tracker.update(*_options((A, 100.0), (climbed, 110.0), (B, 120.0)), np.array(A))
     assert chosen is not None and np.allclose(chosen.q, climbed) and not chosen.switched
 
 
 def test_a_lost_peak_is_replaced_by_the_nearest_survivor_not_the_best() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0)))
+    tracker.update(*_options((A, 100.0)), np.array(A))
     near = [a + 0.7 for a in A]  # beyond track_radius: A is lost
-    chosen = tracker.update(*_options((B, 500.0), (near, 50.0)))
+    chosen = tracker.update(*_options((B, 500.0), (near, 50.0)), np.array(A))
     assert chosen is not None and np.allclose(chosen.q, near) and chosen.switched
 
 
 def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> None:
     tracker = _tracker(settle_frames=4)
-    ramps = [tracker.update(*_options((A, 100.0))).ramp for _ in range(6)]  # type: ignore[union-attr]
+    ramps = [tracker.update(*_options((A, 100.0)), np.array(A)).ramp for _ in range(6)]  # type: ignore[union-attr]
     assert ramps == [0.0, 0.25, 0.5, 0.75, 1.0, 1.0]
-    assert tracker.update(*_options((A, -1.0))) is None
+    assert tracker.update(*_options((A, -1.0)), np.array(A)) is None
 
 
 def test_branch_lock_breeds_every_individual_on_one_branch(planar: Robot) -> None:

@@ -103,7 +103,7 @@ class ControllerParams:
         coherent: ``single``/``multi`` keep each imaginary arm on one tracked peak of the arm's own elbow
             branch and ramp the pull in (:mod:`previewctl.control.peaks`); ``False`` is the paper's
             literal eq. 20/21 (each frame's argmax of each imaginary arm, any branch).
-        hysteresis: relative S margin by which another peak must beat the tracked one to take over.
+        hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
     """

@@ -8,10 +8,13 @@ follows one peak per imaginary arm:
 
 * the tracked peak is the best individual of the imaginary arm's search within ``track_radius`` (in
   joint space) of the previous target; if none is left, the peak is lost and the nearest surviving
-  individual is taken (the best one only at the first frame). The controller seeds each search with
+  individual is taken. At the first frame the previous target is the real arm itself, so each
+  imaginary arm starts on the peak whose basin holds the arm. The controller seeds each search with
   its last target, so the tracked peak stays in the population;
-* it changes to another candidate only when that one is better by the factor ``1 + hysteresis``
-  (``S_new > (1 + h) S_tracked``), or when the tracked peak's S is no longer positive;
+* a better peak elsewhere never takes over: the pull of eq. 21 is a descent of the joint-space
+  distance projected on the self-motion manifold, which stalls between basins (measured on
+  ``planar_free``: a switch to a peak twice as good across ``q2 = 0`` left the arm stuck at
+  ``S ≈ 300``). Changing basin deliberately is the job of ``reach``, which checks the move;
 * after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
   camera frames, so the arm does not lunge at a target the search has not settled on.
 
@@ -38,7 +41,7 @@ class TrackedPeak:
     Attributes:
         q: ``(nq,)`` the target configuration [rad].
         S: its AMSIP.
-        switched: whether the peak changed at this frame (lost, or beaten by the hysteresis margin).
+        switched: whether the peak changed at this frame (the first frame, or the peak was lost).
         ramp: the pull factor in [0, 1] (0 right after a change, 1 once settled).
     """
 
@@ -56,7 +59,6 @@ class PeakTracker:
         periodic: ``(nv,)`` joints compared modulo 2π.
         track_radius: largest joint-space move [rad] of a peak between two frames for it to count as
             the same peak.
-        hysteresis: relative S margin another peak needs to take over (``≥ 0``).
         settle_frames: frames over which the pull is ramped in after a change (``≥ 1``).
     """
 
@@ -66,20 +68,20 @@ class PeakTracker:
         periodic: NDArray[np.bool_],
         *,
         track_radius: float,
-        hysteresis: float,
         settle_frames: int,
     ) -> None:
         self._angles = angles
         self._periodic = periodic
-        self.track_radius, self.hysteresis, self.settle_frames = track_radius, hysteresis, settle_frames
+        self.track_radius, self.settle_frames = track_radius, settle_frames
         self._q: Array | None = None
         self._since_switch = 0
 
-    def update(self, Q: Array, S: Array) -> TrackedPeak | None:
+    def update(self, Q: Array, S: Array, start: Array) -> TrackedPeak | None:
         """Choose this frame's target among a search's individuals ``Q`` ``(B, nq)`` with AMSIP ``S`` ``(B,)``.
 
         The tracked peak is the best individual within ``track_radius`` of the last target (the local
-        peak's current representative).
+        peak's current representative). At the first frame the "last target" is ``start`` (the real
+        arm's configuration), so the imaginary arm climbs the peak whose basin the arm is in.
 
         Returns:
             The target, or ``None`` if no individual has ``S > 0`` (the caller keeps its last target).
@@ -88,19 +90,15 @@ class PeakTracker:
         if not valid.size:
             return None
         Qv, Sv = Q[valid], S[valid]
-        best = int(np.argmax(Sv))
-        if self._q is None:  # the first frame: the best peak of the arm's family
-            chosen, switched = best, True
-        else:
-            to = self._angles(np.vstack([self._q[None], Qv]))
-            distance = joint_distance(to[1:], to[:1], self._periodic)[:, 0]
-            near = distance <= self.track_radius
-            if not near.any():  # the peak was lost: the nearest surviving individual
-                chosen, switched = int(np.argmin(distance)), True
-            else:
-                tracked = int(np.flatnonzero(near)[np.argmax(Sv[near])])
-                switched = (1.0 + self.hysteresis) * Sv[tracked] < Sv[best]
-                chosen = best if switched else tracked
+        first = self._q is None
+        last = np.asarray(start, dtype=float) if self._q is None else self._q
+        to = self._angles(np.vstack([last[None], Qv]))
+        distance = joint_distance(to[1:], to[:1], self._periodic)[:, 0]
+        near = distance <= self.track_radius
+        if near.any():
+            chosen, switched = int(np.flatnonzero(near)[np.argmax(Sv[near])]), first
+        else:  # the peak was lost: the nearest surviving individual
+            chosen, switched = int(np.argmin(distance)), True
         self._since_switch = 0 if switched else self._since_switch + 1
         self._q = np.array(Qv[chosen], dtype=float)
         ramp = min(1.0, self._since_switch / self.settle_frames)

@@ -128,7 +128,7 @@ class PreviewController:
         self._trackers = [
             PeakTracker(
                 lambda Q: joint_angles(robot, Q), joint_periodic(robot),
-                track_radius=params.track_radius, hysteresis=params.hysteresis, settle_frames=params.settle_frames,
+                track_radius=params.track_radius, settle_frames=params.settle_frames,
             )
             for _ in self.searches
         ]
@@ -156,11 +156,11 @@ class PreviewController:
         for i, best in enumerate(step_searches(self.searches, path, times)):
             targets[i], values[i] = np.asarray(best.q, dtype=float), float(best.S)
             if self._coherent:
-                self._track(i, best, targets, values)
+                self._track(i, best, q, targets, values)
         self._targets, self._target_amsip = targets, values
         return targets, values
 
-    def _track(self, i: int, best: Any, targets: Array, values: Array) -> None:
+    def _track(self, i: int, best: Any, q: Array, targets: Array, values: Array) -> None:
         """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode)."""
         search = self.searches[i]
         if isinstance(search, OneStepGA):
@@ -168,7 +168,7 @@ class PreviewController:
         else:  # a stand-in search: its best and peaks
             options = [best, *search.peaks()]
             Q, S = np.array([np.asarray(c.q, dtype=float) for c in options]), np.array([float(c.S) for c in options])
-        peak = self._trackers[i].update(Q, S)
+        peak = self._trackers[i].update(Q, S, q)
         if peak is not None:
             targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
             search.seed(peak.q)  # keep the tracked peak in the population
