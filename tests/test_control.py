@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.control`: eq. 19 tracking, null-space input, limits, preview skeleton."""
+"""Tests of :mod:`previewctl.control` (params, tracking, gradient, preview, reach, factory): eq. 19
+tracking, null-space input, limits, eqs. 20-21 with stand-in searches, the reachability route."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Result files are written completely or not at all."""
+"""Tests of :mod:`previewctl.files`: result files are written completely or not at all."""
 
 from __future__ import annotations
 

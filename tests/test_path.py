@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.trajectory`: constant-speed piecewise-linear hand paths."""
+"""Tests of :mod:`previewctl.path`: constant-speed piecewise-linear hand paths."""
 
 # The constructors accept any array-like (lists included); some tests pass bad types on purpose.
 # mypy: disable-error-code="arg-type"

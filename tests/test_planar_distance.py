@@ -1,4 +1,4 @@
-"""Cross-checks of `previewctl.planar_distance` against Coal, plus shapes, identities and errors.
+"""Cross-checks of :mod:`previewctl.planar.distance` against Coal, plus shapes, identities and errors.
 
 Each link is built in Coal as ``coal.Capsule(r, |b - a|)`` (axis: its local z) placed at the
 segment's midpoint with a rotation taking z to ``b - a``. Separated pairs must match

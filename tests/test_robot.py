@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.robot` and scene loading: defaults, options, typed errors, packaging."""
+"""Tests of :mod:`previewctl.robot` (model, load, geometry) and of scene files
+(:mod:`previewctl.scene.file`): defaults, options, typed errors, packaging (the wheel ships the robots)."""
 
 from __future__ import annotations
 
@@ -494,7 +495,9 @@ position = [-1.0, 0.6, 0.0]
     boxes = previewctl.Scene(
         (
             previewctl.Obstacle(
-                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
+                "b",
+                previewctl.Box((0.2, 0.4, 0.6)),
+                previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3)),
             ),
             previewctl.Obstacle(
                 "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.scene.motion.Static(np.array([-1.0, 0.6, 0.0]))

@@ -1,4 +1,5 @@
-"""Global exploration and the 1-step GA on the paper's planar arm (and a quick look at the Panda)."""
+"""Tests of :mod:`previewctl.search` (explore, ga, genes) and ``previewctl map``: global exploration
+and the 1-step GA on the paper's planar arm (and a quick look at the Panda)."""
 
 from __future__ import annotations
 

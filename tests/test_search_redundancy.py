@@ -1,4 +1,7 @@
-"""Redundancy maps: the planar closed form and the general Newton map put the hand on the target.
+"""Tests of the redundancy maps (:mod:`previewctl.search.redundancy`, :mod:`previewctl.search.maps`,
+:mod:`previewctl.search.newton`, :mod:`previewctl.planar.redundancy`) and of
+:mod:`previewctl.search.scoring`: the planar closed form and the general Newton map put the hand on
+the target.
 
 Tolerances: the closed form is exact to 1e-9 m; the Newton map promises its ``tolerance`` (1e-4 m by
 default) on every configuration it flags reachable.

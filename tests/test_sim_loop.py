@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.simulate` and :mod:`previewctl.viz.figures`: the loop, collisions, saving, figures."""
+"""Tests of :mod:`previewctl.sim.loop`, :mod:`previewctl.sim.log`, :mod:`previewctl.viz.figures` and
+``previewctl run``: the loop, collisions, saving and reloading logs, figures."""
 
 from __future__ import annotations
 

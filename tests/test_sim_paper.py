@@ -1,4 +1,5 @@
-"""The canonical planar scene end to end: `previewctl paper` and a short preview run."""
+"""Tests of :mod:`previewctl.sim.paper`: the canonical planar scene end to end (``previewctl paper``)
+and a short preview run."""
 
 from __future__ import annotations
 
