@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import random_chain_urdf
+from helpers import random_chain_urdf, rot_z
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
@@ -20,11 +20,6 @@ from previewctl.scene.motion import ConstantVelocity, Static
 
 Array = NDArray[np.float64]
 LINK = 0.75  # planar4 link length [m]
-
-
-def rot_z(angle: float) -> Array:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 # ------------------------------------------------------------------------------------ identities

@@ -17,6 +17,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import rot_z
 
 import previewctl
 import previewctl.scene.motion
@@ -35,11 +36,6 @@ from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
 from previewctl.robot.model import Robot
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def rot_z(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 # ------------------------------------------------------------------------------ defaults

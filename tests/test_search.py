@@ -36,11 +36,6 @@ def box_scene() -> Scene:
 
 
 @pytest.fixture(scope="module")
-def planar4() -> Robot:
-    return load_robot("planar4")
-
-
-@pytest.fixture(scope="module")
 def evaluator(planar4: Robot) -> Evaluator:
     return Evaluator(planar4, box_scene())
 

@@ -31,21 +31,6 @@ PLANAR_TOL = 1e-9  # [m]
 NEWTON_TOL = 1e-4  # [m], NewtonRedundancy's default tolerance
 
 
-@pytest.fixture(scope="module")
-def planar4() -> Robot:
-    return load_robot("planar4")
-
-
-@pytest.fixture(scope="module")
-def panda() -> Robot:
-    return load_robot("panda")
-
-
-@pytest.fixture(scope="module")
-def ur5() -> Robot:
-    return load_robot("ur5")
-
-
 def tip_positions(robot: Robot, Q: np.ndarray) -> np.ndarray:
     """Hand positions ``(B, 3)`` by Pinocchio forward kinematics (independent of the maps)."""
     data = robot.model.createData()
