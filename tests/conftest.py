@@ -1,14 +1,33 @@
-"""Shared fixtures: the robots, loaded once per session.
+"""Shared fixtures and test settings: the robots (loaded once per session) and the Hypothesis profiles.
+
+Hypothesis profiles (choose one with ``HYPOTHESIS_PROFILE=<name>``):
+
+* ``ci`` (the default, everywhere): derandomized, so every run of the suite tries the same examples
+  and a failure in CI reproduces on any machine; no example database, no deadline (a shared host
+  stalls).
+* ``explore``: fresh random examples on every run, for hunting new counter-examples after touching
+  geometry or kinematics; Hypothesis's example database (``.hypothesis/``) replays a counter-example
+  it found until it is fixed, and a failure prints the ``@reproduce_failure`` blob to pin it.
+
+Per-test ``@settings(...)`` (example counts) inherit the rest from the loaded profile, because this
+file is imported before the test modules.
 
 Plain helper functions (``rot_z``, ``planar_doc``, ``random_chain_urdf``) live in ``helpers.py``.
 """
 
 from __future__ import annotations
 
+import os
+
 import pytest
+from hypothesis import settings
 
 import previewctl
 from previewctl.robot.model import Robot
+
+settings.register_profile("ci", derandomize=True, database=None, deadline=None, print_blob=True)
+settings.register_profile("explore", deadline=None, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture(scope="session")
