@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.control`: eq. 19 tracking, null-space input, limits, preview skeleton."""
+"""Tests of :mod:`previewctl.control` (params, tracking, gradient, preview, reach, factory): eq. 19
+tracking, null-space input, limits, eqs. 20-21 with stand-in searches, the reachability route."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import PLANAR_Q0, PLANAR_START, planar_doc
 from numpy.typing import NDArray
 
 from previewctl.control.base import ControlState
@@ -34,27 +36,7 @@ Array = NDArray[np.float64]
 TRACKING_TOLERANCE = 1e-3
 """Largest hand error [m] accepted for eq. 19 tracking with nothing in the way."""
 
-PLANAR_Q0 = [0.6, 1.0, -1.2, -1.0]
-PLANAR_START = [1.9069, 1.0417]
 PANDA_Q0 = [-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785]
-
-
-def planar_doc(**overrides: Any) -> dict[str, Any]:
-    """A planar4 scenario document: hand along a 0.5 m line in 5 s (tests override sections)."""
-    doc: dict[str, Any] = {
-        "name": "planar_test",
-        "robot": {"source": "planar4", "q0": PLANAR_Q0},
-        "path": {"waypoints": [PLANAR_START, [1.6069, 0.6417]], "duration": 5.0},
-        "controller": {"name": "none"},
-        "timing": {"duration": 2.0},
-    }
-    doc.update(overrides)
-    return doc
-
-
-@pytest.fixture(scope="module")
-def planar() -> Robot:
-    return load_robot("planar4")
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +69,8 @@ def quick(scenario: Scenario, controller: str) -> Any:
 
 def test_eq19_tracks_planar_path_and_gradient_does_not_disturb_the_hand() -> None:
     scenario = scenario_from_dict(planar_doc(
-        obstacles=[{"name": "ball", "shape": "sphere", "radius": 0.15, "position": [1.0, 0.6]}]))
+        obstacles=[{"name": "ball", "shape": "sphere", "radius": 0.15, "position": [1.0, 0.6]}],
+        timing={"duration": 2.0}))
     none, grad = quick(scenario, "none"), quick(scenario, "gradient")
     assert none.hand_error.max() < TRACKING_TOLERANCE
     assert grad.hand_error.max() < TRACKING_TOLERANCE
@@ -119,10 +102,10 @@ def test_null_space_part_does_not_move_the_hand(panda_scenario: Scenario) -> Non
         assert np.linalg.norm(J @ info.qdot_null) < 1e-10 * np.linalg.norm(info.qdot_null) + 1e-14
 
 
-def test_gradient_matches_directional_derivative(planar: Robot) -> None:
+def test_gradient_matches_directional_derivative(planar4: Robot) -> None:
     scene = scene_from_dict([{"name": "b", "shape": "sphere", "radius": 0.2, "position": [1.2, 0.5]}])
-    ev = Evaluator(planar, scene)
-    controller = GradientController(planar, ev, ControllerParams(fd_step=1e-5))
+    ev = Evaluator(planar4, scene)
+    controller = GradientController(planar4, ev, ControllerParams(fd_step=1e-5))
     q = np.array(PLANAR_Q0)
     g = controller.gradient(q, 0.0)
     d = np.array([0.3, -0.2, 0.5, 0.1])
@@ -131,19 +114,19 @@ def test_gradient_matches_directional_derivative(planar: Robot) -> None:
     assert g @ d == pytest.approx(numeric, rel=1e-4)
 
 
-def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(planar: Robot) -> None:
+def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(planar4: Robot) -> None:
     q = np.array(PLANAR_Q0)
-    J = kinematics(planar, q[None, :]).J_task[0]
+    J = kinematics(planar4, q[None, :]).J_task[0]
     J_sharp, lam = damped_pseudo_inverse(J, 0.05, 0.05)
     assert lam == 0.0
     np.testing.assert_allclose(J_sharp, np.linalg.pinv(J), atol=1e-12)
     # fully stretched arm: the y row is non-zero, the x row is zero -> sigma_min = 0
-    J0 = kinematics(planar, np.zeros((1, 4))).J_task[0]
+    J0 = kinematics(planar4, np.zeros((1, 4))).J_task[0]
     J0_sharp, lam0 = damped_pseudo_inverse(J0, 0.05, 0.05)
     assert lam0 == pytest.approx(0.05)
     assert np.isfinite(J0_sharp).all()
     path = HandPath(np.array([[3.0, 0.0], [2.9, 0.0]]), 1.0)  # pull the hand inwards along x
-    qdot, info = TrackingController(planar).command(0.0, np.zeros(4), state_for(planar, np.zeros(4), path))
+    qdot, info = TrackingController(planar4).command(0.0, np.zeros(4), state_for(planar4, np.zeros(4), path))
     assert np.isfinite(qdot).all() and np.abs(info.qdot_task).max() < 10.0
 
 
@@ -152,7 +135,7 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
 
 def test_velocity_limits_by_uniform_scaling_in_a_run() -> None:
     doc = planar_doc(controller={"name": "none", "velocity_scale": 0.05, "feedback_gain": 20.0},
-                     path={"waypoints": [PLANAR_START, [1.0, 0.3]], "duration": 1.0})
+                     path={"waypoints": [PLANAR_START, [1.0, 0.3]], "duration": 1.0}, timing={"duration": 2.0})
     scenario = scenario_from_dict(doc)
     run = quick(scenario, "none")
     limit = 0.05 * scenario.robot.velocity_limits
@@ -279,68 +262,66 @@ def planar_ik(robot: Robot, q12: tuple[float, float], tip: Array, elbow: int = 1
     return np.array([q1, q2, phi - q1 - q2, q4])
 
 
-def test_preview_with_gradient_adds_the_local_term(planar: Robot) -> None:
+def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
     """with_gradient: v = K_v (sum k_i q~_i - q) + K_g grad S. With the imaginary arms at q the pull
     vanishes and v is exactly the gradient controller's input; it needs the evaluator."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
     scene = Scene((Obstacle("ball", Sphere(0.2), Static(np.array([0.3, 1.2, 0.0]))),))  # 7 cm from the arm
-    evaluator = Evaluator(planar, scene)
+    evaluator = Evaluator(planar4, scene)
     params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True)
     q = np.array(PLANAR_Q0)
-    controller = PreviewController(planar, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
-    _, info = controller.command(1.0, q, state_for(planar, q, path, scene))
-    local = GradientController(planar, evaluator, params).null_space_input(q, 1.0)
+    controller = PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
+    _, info = controller.command(1.0, q, state_for(planar4, q, path, scene))
+    local = GradientController(planar4, evaluator, params).null_space_input(q, 1.0)
     assert np.linalg.norm(local) > 0
     np.testing.assert_allclose(info.v, local, rtol=1e-12, atol=1e-15)
-    plain = PreviewController(planar, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
-    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar, q, path, scene))[1].v, 0.0, atol=1e-15)
+    plain = PreviewController(planar4, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
+    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path, scene))[1].v, 0.0, atol=1e-15)
     with pytest.raises(ConfigurationError, match="with_gradient needs the AMSIP evaluator"):
-        PreviewController(planar, params, "multi", [FakeGA(q), FakeGA(q)])
+        PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)])
     with pytest.raises(ConfigurationError, match="with_gradient must be true or false"):
         ControllerParams(with_gradient=1)  # type: ignore[arg-type]
 
 
-def test_preview_controller_computes_eq21_with_fake_searches(planar: Robot) -> None:
+def test_preview_controller_computes_eq21_with_fake_searches(planar4: Robot) -> None:
     """The paper-literal mode (coherent=False): eq. 21 on each search's best, at full gain at once."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
     params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, coherent=False)
     q = np.array(PLANAR_Q0)
     targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
     fakes = [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)]
-    controller = PreviewController(planar, params, "multi", fakes)
-    _, info = controller.command(1.0, q, state_for(planar, q, path))
+    controller = PreviewController(planar4, params, "multi", fakes)
+    _, info = controller.command(1.0, q, state_for(planar4, q, path))
     expected_v = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
     np.testing.assert_allclose(info.v, expected_v, atol=1e-12)
     assert info.targets is not None and info.target_amsip is not None
     np.testing.assert_allclose(info.targets, np.array(targets))
     np.testing.assert_allclose(info.target_amsip, np.array([10.0, 20.0]))
-
     # each imaginary arm works on its own future time t + i t~ and hand target r_d(t + i t~)
     assert [c[1] for c in fakes[0].calls] == [1.5] and [c[1] for c in fakes[1].calls] == [2.0]
     np.testing.assert_allclose(fakes[1].calls[0][0], path.position(2.0))
     assert all(len(f.seeded) == 1 for f in fakes)
     # no frame due: no new generation, same targets
-    controller.command(1.01, q, state_for(planar, q, path, frame_due=False))
+    controller.command(1.01, q, state_for(planar4, q, path, frame_due=False))
     assert len(fakes[0].calls) == 1
-    controller.command(1.02, q, state_for(planar, q, path, frame_due=True))
+    controller.command(1.02, q, state_for(planar4, q, path, frame_due=True))
     assert len(fakes[0].calls) == 2
 
 
-def test_coherent_preview_ramps_the_pull_in_from_zero(planar: Robot) -> None:
+def test_coherent_preview_ramps_the_pull_in_from_zero(planar4: Robot) -> None:
     """Coherent mode: the same targets, but the pull starts at 0 and reaches eq. 21 after settle_frames."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
     params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, settle_frames=2)
     q = np.array(PLANAR_Q0)
     targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
-    controller = PreviewController(planar, params, "multi", [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)])
+    controller = PreviewController(planar4, params, "multi", [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)])
     full = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
     for ramp in (0.0, 0.5, 1.0, 1.0):
-        _, info = controller.command(1.0, q, state_for(planar, q, path))
+        _, info = controller.command(1.0, q, state_for(planar4, q, path))
         np.testing.assert_allclose(info.v, ramp * full, atol=1e-12)
 
 
-
-def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar: Robot) -> None:
+def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar4: Robot) -> None:
     doc = planar_doc(path={"waypoints": [PLANAR_START, [1.9069, 1.0317]], "duration": 0.5},
                      controller={"name": "single", "gain": 2.0}, timing={"duration": 4.0})
     scenario = scenario_from_dict(doc)
@@ -358,10 +339,10 @@ def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(pl
     assert 0 < len(fake.calls) <= int(np.ceil(4.0 / 0.033)) + 1
 
 
-def test_wrapped_difference_goes_the_short_way(planar: Robot) -> None:
+def test_wrapped_difference_goes_the_short_way(planar4: Robot) -> None:
     q = np.array([3.0, 0.0, 0.0, 0.0])
     target = np.array([-3.0, 0.0, 0.0, 0.0])  # 6 rad apart, 0.28 rad the other way round
-    diff = wrapped_difference(planar, q, target)
+    diff = wrapped_difference(planar4, q, target)
     assert diff[0] == pytest.approx(2 * np.pi - 6.0)
 
 
@@ -376,7 +357,7 @@ class FakePeaksGA(FakeGA):
         return self._peaks
 
 
-def reach_setup(planar: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
+def reach_setup(planar4: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
     """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
     params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
@@ -384,18 +365,18 @@ def reach_setup(planar: Robot, near_S: tuple[float, float]) -> tuple[ReachContro
     searches, nears = [], []
     for i, S_near in enumerate(near_S, start=1):
         tip = path.position(0.5 * i)
-        near = planar_ik(planar, (0.6 + 0.02 * i, 1.0), tip, elbow=-1)
-        far = planar_ik(planar, (-2.0, 2.5), tip, elbow=1)  # > 2 rad away: beyond 1 rad/s over 0.5 s
+        near = planar_ik(planar4, (0.6 + 0.02 * i, 1.0), tip, elbow=-1)
+        far = planar_ik(planar4, (-2.0, 2.5), tip, elbow=1)  # > 2 rad away: beyond 1 rad/s over 0.5 s
         best = FakeCandidate(np.zeros(2), 0, far, 1000.0)
         searches.append(FakePeaksGA(best, [best, FakeCandidate(np.zeros(2), 1, near, S_near)]))
         nears.append(near)
-    controller = ReachController(planar, params, Evaluator(planar), searches, redundancy_map(planar))
+    controller = ReachController(planar4, params, Evaluator(planar4), searches, redundancy_map(planar4))
     return controller, q, path, nears
 
 
-def test_reach_follows_a_reachable_route_not_each_times_best(planar: Robot) -> None:
-    controller, q, path, nears = reach_setup(planar, (100.0, 100.0))
-    _, info = controller.command(0.0, q, state_for(planar, q, path))
+def test_reach_follows_a_reachable_route_not_each_times_best(planar4: Robot) -> None:
+    controller, q, path, nears = reach_setup(planar4, (100.0, 100.0))
+    _, info = controller.command(0.0, q, state_for(planar4, q, path))
     route = controller.route
     assert route is not None and route.complete
     np.testing.assert_allclose(route.nodes, np.array(nears), atol=1e-12)
@@ -406,22 +387,22 @@ def test_reach_follows_a_reachable_route_not_each_times_best(planar: Robot) -> N
     # on the path at t + dtau (hand on r_d) and within the speed limits
     dtau = 0.5 / (controller.sweep_samples + 1)
     np.testing.assert_allclose(info.v, (route.lead - q) / dtau, atol=1e-9)
-    lead_hand = kinematics(planar, route.lead[None, :]).tip_position[0, :2]
+    lead_hand = kinematics(planar4, route.lead[None, :]).tip_position[0, :2]
     np.testing.assert_allclose(lead_hand, path.position(dtau), atol=1e-9)
-    assert np.all(np.abs(route.lead - q) <= planar.velocity_limits * dtau + 1e-12)
+    assert np.all(np.abs(route.lead - q) <= planar4.velocity_limits * dtau + 1e-12)
 
 
-def test_reach_drops_a_route_at_its_first_negative_node(planar: Robot) -> None:
-    controller, q, path, nears = reach_setup(planar, (100.0, -1.0))
-    controller.command(0.0, q, state_for(planar, q, path))
+def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
+    controller, q, path, nears = reach_setup(planar4, (100.0, -1.0))
+    controller.command(0.0, q, state_for(planar4, q, path))
     route = controller.route
     assert route is not None and not route.complete  # level 2 has no reachable positive node
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
 
-def test_make_controller_builds_reach_with_real_searches(planar: Robot) -> None:
-    controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar,
-                                 Evaluator(planar), np.random.default_rng(0))
+def test_make_controller_builds_reach_with_real_searches(planar4: Robot) -> None:
+    controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
+                                 Evaluator(planar4), np.random.default_rng(0))
     assert isinstance(controller, ReachController) and len(controller.searches) == 3
 
 

@@ -1,7 +1,8 @@
-"""Result files are written completely or not at all."""
+"""Tests of :mod:`previewctl.files`: result files are written completely or not at all."""
 
 from __future__ import annotations
 
+import ast
 from pathlib import Path
 
 import matplotlib
@@ -41,3 +42,68 @@ def test_save_figure_follows_the_suffix_and_fails_cleanly(tmp_path: Path) -> Non
     assert png.read_bytes().startswith(b"\x89PNG") and plain.read_bytes().startswith(b"\x89PNG")
     assert b"<svg" in svg.read_bytes()[:500]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plot", "plot.png", "plot.svg"]
+
+
+# ------------------------------------------------------------------------------ one place each
+
+PACKAGE = Path(__file__).resolve().parent.parent / "previewctl"
+WRITERS = {"savefig", "savez", "savez_compressed", "save", "write_text", "write_bytes", "dump", "tofile", "fdopen"}
+"""Calls that write a file when given a path (``np.save``, ``Image.save``, ``json.dump``, ...)."""
+
+
+def package_modules() -> list[tuple[str, ast.Module]]:
+    return [(path.relative_to(PACKAGE.parent).as_posix(), ast.parse(path.read_text(), str(path)))
+            for path in sorted(PACKAGE.rglob("*.py"))]
+
+
+def called_name(call: ast.Call) -> str:
+    func = call.func
+    return func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else ""
+
+
+def writes_a_file(call: ast.Call) -> bool:
+    name = called_name(call)
+    if name == "open":  # builtin open or Path.open: only a write mode counts
+        modes = [a.value for a in call.args if isinstance(a, ast.Constant) and isinstance(a.value, str)]
+        modes += [k.value.value for k in call.keywords
+                  if k.arg == "mode" and isinstance(k.value, ast.Constant) and isinstance(k.value.value, str)]
+        return any(set(mode) & set("wax+") for mode in modes)
+    return name in WRITERS
+
+
+def test_only_files_py_writes_result_files() -> None:
+    """Outside previewctl/files.py a write happens only inside a callable handed to ``atomic_write``
+    (which gives it a temporary file), so every result file is written completely or not at all."""
+    offenders = []
+    for name, tree in package_modules():
+        if name == "previewctl/files.py":
+            continue
+        parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+        for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call) and writes_a_file(n)):
+            node: ast.AST = call
+            while node in parents and not (
+                isinstance(node, ast.Lambda)
+                and isinstance(parents[node], ast.Call)
+                and called_name(parents[node]).startswith("atomic_write")
+            ):
+                node = parents[node]
+            if not isinstance(node, ast.Lambda):
+                offenders.append(f"{name}:{call.lineno} {called_name(call)}")
+    assert not offenders, "write these through previewctl.files.atomic_write: " + ", ".join(offenders)
+
+
+def test_only_viz_imports_matplotlib_and_pillow() -> None:
+    """Plotting stays in previewctl/viz/ (files.py saves a Figure it is handed, without importing matplotlib)."""
+    offenders = []
+    for name, tree in package_modules():
+        if name.startswith("previewctl/viz/"):
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                modules = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                modules = [node.module or ""]
+            else:
+                continue
+            offenders += [f"{name}:{node.lineno} {m}" for m in modules if m.split(".")[0] in ("matplotlib", "PIL")]
+    assert not offenders, "only previewctl/viz/ draws: " + ", ".join(offenders)

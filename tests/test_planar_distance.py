@@ -1,4 +1,4 @@
-"""Cross-checks of `previewctl.planar_distance` against Coal, plus shapes, identities and errors.
+"""Cross-checks of :mod:`previewctl.planar.distance` against Coal, plus shapes, identities and errors.
 
 Each link is built in Coal as ``coal.Capsule(r, |b - a|)`` (axis: its local z) placed at the
 segment's midpoint with a rotation taking z to ``b - a``. Separated pairs must match
@@ -14,6 +14,7 @@ import coal
 import numpy as np
 import numpy.typing as npt
 import pytest
+from helpers import rot_z
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -35,11 +36,6 @@ GJK_TOL = 5e-6
 
 
 # ------------------------------------------------------------------------------------ helpers
-
-
-def rot_z(angle: float) -> FloatArray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def frame_along(p0: FloatArray, p1: FloatArray) -> tuple[coal.Transform3s, float]:

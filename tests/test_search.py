@@ -1,4 +1,5 @@
-"""Global exploration and the 1-step GA on the paper's planar arm (and a quick look at the Panda)."""
+"""Tests of :mod:`previewctl.search` (explore, ga, genes) and ``previewctl map``: global exploration
+and the 1-step GA on the paper's planar arm (and a quick look at the Panda)."""
 
 from __future__ import annotations
 
@@ -32,11 +33,6 @@ def box_scene() -> Scene:
         Obstacle("table", Box((1.2, 0.4, 0.4)), Static(np.array([1.3, -0.55, 0.0]))),
         Obstacle("ball", Sphere(0.15), Static(np.array([0.3, 0.6, 0.0]))),
     ))
-
-
-@pytest.fixture(scope="module")
-def planar4() -> Robot:
-    return load_robot("planar4")
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
+from typing import TextIO
 
 import numpy as np
+from tqdm import tqdm
 
 from previewctl.errors import PreviewctlError
 from previewctl.robot.model import GEOMETRY_CHOICES
@@ -37,29 +40,52 @@ def finite_or_none(value: float) -> float | None:
 
 
 class ProgressBar:
-    """A one-line text progress bar on stderr, redrawn at most 10 times a second."""
+    """Progress of one simulated run on stderr, drawn by tqdm: label, percent done, simulated time, elapsed.
 
-    def __init__(self, label: str = "", width: int = 30) -> None:
-        import time
+    On a terminal tqdm redraws the bar in place, at most 10 times a second. Anywhere else (a log
+    file, a pipe, CI) nothing is redrawn: :meth:`close` writes the last state as one line, so a log
+    holds one readable line per run instead of hundreds of ``\\r`` frames.
 
-        self.label, self.width, self._clock = label, width, time.perf_counter
-        self.start, self.shown = self._clock(), -1.0
+    Args:
+        label: printed before the bar (e.g. the controller name).
+        file: where to write; default ``sys.stderr`` (looked up when the bar is made).
+    """
+
+    BAR_FORMAT = "{desc}[{bar:30}] {percentage:5.1f}%{postfix}  elapsed {elapsed}"
+    """tqdm's ``bar_format``; the postfix is the simulated time, e.g. ``50.0%, t =  25.00 s``."""
+
+    def __init__(self, label: str = "", file: TextIO | None = None) -> None:
+        self.label = label
+        self._file = sys.stderr if file is None else file
+        self._fraction, self._t, self._updated = 0.0, 0.0, False
+        self._start = time.perf_counter()
+        self._bar = tqdm(total=1.0, desc=label, bar_format=self.BAR_FORMAT, ascii=".#", file=self._file,
+                         mininterval=0.1, leave=True, postfix=self._time(0.0), disable=not _is_terminal(self._file))
+
+    @staticmethod
+    def _time(t: float) -> str:
+        return f"t = {t:6.2f} s"
 
     def update(self, fraction: float, t: float) -> None:
-        """Show ``fraction`` done at simulated time ``t`` [s]."""
-        now = self._clock()
-        if now - self.shown < 0.1 and fraction < 1.0:
-            return
-        self.shown = now
-        filled = round(self.width * fraction)
-        sys.stderr.write(f"\r{self.label}[{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:5.1f}%  "
-                         f"t = {t:6.2f} s  elapsed {now - self.start:6.1f} s")
-        sys.stderr.flush()
+        """Show ``fraction`` of the run done (in [0, 1]) at simulated time ``t`` [s]."""
+        self._fraction, self._t, self._updated = fraction, t, True
+        self._bar.set_postfix_str(self._time(t), refresh=False)
+        self._bar.update(fraction - self._bar.n)
 
     def close(self) -> None:
-        """End the line (if anything was drawn)."""
-        if self.shown >= 0:
-            sys.stderr.write("\n")
+        """End the bar: on a terminal, its final frame and a newline; elsewhere, one line (if updated)."""
+        if not self._bar.disable:
+            self._bar.close()
+        elif self._updated:
+            line = tqdm.format_meter(self._fraction, 1.0, time.perf_counter() - self._start, prefix=self.label,
+                                     ascii=".#", bar_format=self.BAR_FORMAT, postfix=self._time(self._t))
+            self._file.write(line + "\n")
+            self._file.flush()
+
+
+def _is_terminal(stream: TextIO) -> bool:
+    isatty = getattr(stream, "isatty", None)
+    return bool(isatty is not None and isatty())
 
 
 def add_evaluation_options(parser: argparse.ArgumentParser) -> None:

@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.simulate` and :mod:`previewctl.viz.figures`: the loop, collisions, saving, figures."""
+"""Tests of :mod:`previewctl.sim.loop`, :mod:`previewctl.sim.log`, :mod:`previewctl.viz.figures` and
+``previewctl run``: the loop, collisions, saving and reloading logs, figures."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import planar_doc
 
 from previewctl.cli.main import main
 from previewctl.errors import PreviewctlError
@@ -21,20 +23,7 @@ from previewctl.sim.loop import frame_index, simulate
 from previewctl.sim.scenario import Scenario, Timing, scenario_from_dict
 from previewctl.viz.figures import make_figures, obstacle_outline, strobe_plot
 
-Q0 = [0.6, 1.0, -1.2, -1.0]
-START = [1.9069, 1.0417]
 BOX = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0, 1.2, 0.0], "rpy": [0, 0, 0.3]}
-
-
-def planar_doc(**sections: Any) -> dict[str, Any]:
-    doc: dict[str, Any] = {
-        "name": "sim_test",
-        "robot": {"source": "planar4", "q0": Q0},
-        "path": {"waypoints": [START, [1.6069, 0.6417]], "duration": 5.0},
-        "controller": {"name": "none"},
-    }
-    doc.update(sections)
-    return doc
 
 
 @pytest.fixture(scope="module")
@@ -113,7 +102,7 @@ def test_log_contents(short_run: tuple[Scenario, RunResult]) -> None:
     assert run.frame_due[0] and run.frame_due.sum() == frame_index(0.6, 0.033) + 1
     assert np.isfinite(run.S).all() and (run.S > 0).all()
     summary = run.summary()
-    assert summary["controller"] == "gradient" and summary["scenario"] == "sim_test" and summary["steps"] == T
+    assert summary["controller"] == "gradient" and summary["scenario"] == "planar_test" and summary["steps"] == T
     assert summary["max_abs_qdot"] == pytest.approx(np.abs(run.qdot).max())
     assert summary["cycle_time_median"] <= summary["cycle_time_max"]
 

@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.scenario`: TOML scenario files and their error messages."""
+"""Tests of :mod:`previewctl.sim.scenario`: TOML scenario files and their error messages."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Coherent imaginary arms (previewctl.control.peaks and the coherent preview mode): peak identity,
-the GA's branch lock, blends within one family, and the paper-literal mode unchanged."""
+"""Tests of :mod:`previewctl.control.peaks` and the coherent preview mode: peak identity, the GA's
+branch lock, blends within one family, and the paper-literal mode unchanged."""
 
 from __future__ import annotations
 
@@ -13,17 +13,11 @@ from previewctl.control.peaks import PeakTracker
 from previewctl.control.preview import wrapped_difference
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA
 from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import canonical_scenario
-
-
-@pytest.fixture(scope="module")
-def planar() -> Robot:
-    return load_robot("planar4")
 
 
 def _options(*pairs: tuple[list[float], float]) -> tuple[np.ndarray, np.ndarray]:
@@ -79,21 +73,21 @@ def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> N
     assert tracker.update(*_options((A, -1.0)), np.array(A)) is None
 
 
-def test_branch_lock_breeds_every_individual_on_one_branch(planar: Robot) -> None:
-    ga = OneStepGA(planar, Evaluator(planar), PlanarRedundancy(planar), np.random.default_rng(3))
+def test_branch_lock_breeds_every_individual_on_one_branch(planar4: Robot) -> None:
+    ga = OneStepGA(planar4, Evaluator(planar4), PlanarRedundancy(planar4), np.random.default_rng(3))
     ga.branch_lock = 1
     for _ in range(5):
         ga.step(np.array([0.85, 0.65]), 0.0)
     assert np.all(ga.population_branch == 1)
     assert ga.peaks() and all(p.branch == 1 for p in ga.peaks())
-    _, solved = PlanarRedundancy(planar).genes_of(np.array([p.q for p in ga.peaks()]))
+    _, solved = PlanarRedundancy(planar4).genes_of(np.array([p.q for p in ga.peaks()]))
     assert np.all(solved == 1)
 
 
-def test_unlocked_ga_is_unchanged_by_the_lock_attribute(planar: Robot) -> None:
+def test_unlocked_ga_is_unchanged_by_the_lock_attribute(planar4: Robot) -> None:
     runs = []
     for lock in (False, True):
-        ga = OneStepGA(planar, Evaluator(planar), PlanarRedundancy(planar), np.random.default_rng(5))
+        ga = OneStepGA(planar4, Evaluator(planar4), PlanarRedundancy(planar4), np.random.default_rng(5))
         if lock:
             ga.branch_lock = None
         for _ in range(4):
@@ -102,11 +96,11 @@ def test_unlocked_ga_is_unchanged_by_the_lock_attribute(planar: Robot) -> None:
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
 
 
-def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar: Robot) -> None:
+def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar4: Robot) -> None:
     q = np.array([0.3, 0.4, 0.2, -2.9])
     target = np.array([0.3, 0.4, 0.2, 2.9])
-    wrapped = wrapped_difference(planar, q, target)
-    kept = wrapped_difference(planar, q, target, keep=(3,))
+    wrapped = wrapped_difference(planar4, q, target)
+    kept = wrapped_difference(planar4, q, target, keep=(3,))
     assert wrapped[3] == pytest.approx(5.8 - 2 * np.pi)  # the short way: through the fold q4 = ±π
     assert kept[3] == pytest.approx(5.8)  # through q4 = 0, the stretched wrist
     # on the way, q4 = 0 is crossed: the straight line q + s * kept passes it for s in (0, 1)
@@ -125,9 +119,9 @@ def _short(name: str, coherent: bool, duration: float = 3.0) -> RunResult:
     return simulate(scenario, name, seed=0)
 
 
-def test_coherent_multi_keeps_every_imaginary_arm_on_the_arms_branch(planar: Robot) -> None:
+def test_coherent_multi_keeps_every_imaginary_arm_on_the_arms_branch(planar4: Robot) -> None:
     run = _short("multi", coherent=True)
-    red = PlanarRedundancy(planar)
+    red = PlanarRedundancy(planar4)
     _, arm_branch = red.genes_of(np.asarray(run.q))
     targets = np.asarray(run.targets)
     for i in range(targets.shape[1]):

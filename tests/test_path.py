@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.trajectory`: constant-speed piecewise-linear hand paths."""
+"""Tests of :mod:`previewctl.path`: constant-speed piecewise-linear hand paths."""
 
 # The constructors accept any array-like (lists included); some tests pass bad types on purpose.
 # mypy: disable-error-code="arg-type"
@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import rot_z
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -17,12 +18,6 @@ from previewctl.path import HandPath
 
 L_SHAPE = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 4.0]])  # lengths 3 and 4, total 7 [m]
 SPATIAL = np.array([[0.1, 0.2, 0.3], [0.4, 0.2, 0.3], [0.4, -0.2, 0.5], [0.0, 0.0, 0.0]])
-
-
-def rot_z(angle: float) -> NDArray[np.float64]:
-    """Rotation about z by ``angle`` [rad]."""
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 # ----------------------------------------------------------------------------- construction

@@ -1,5 +1,6 @@
-"""Tests of :mod:`previewctl.amsip`: distances against closed forms and against Coal directly, the
-potential's sign and monotonicity, its validation, and batch against one-at-a-time evaluation."""
+"""Tests of :mod:`previewctl.index.evaluator` (AMSIP, eq. 18) and :mod:`previewctl.index.potential`:
+distances against closed forms and against Coal directly, the potential's sign and monotonicity, its
+validation, and batch against one-at-a-time evaluation."""
 
 from __future__ import annotations
 

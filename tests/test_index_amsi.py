@@ -1,13 +1,14 @@
-"""Tests of :mod:`previewctl.avoidance`: null-space identities, Jacobians against finite differences,
-the AMSI against a hand computation, ranks, continuity at singularities, and the planar closed form
-against the general (Pinocchio + Coal) path."""
+"""Tests of :mod:`previewctl.index.amsi` (eqs. 3-17) and :mod:`previewctl.kinematics`: null-space
+identities, Jacobians against finite differences, the AMSI against a hand computation, ranks,
+continuity at singularities, the planar closed form (:mod:`previewctl.planar`) against the general
+(Pinocchio + Coal) path, batched frame kinematics against Pinocchio, and the Gram pseudo-inverse."""
 
 from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import random_chain_urdf
+from helpers import random_chain_urdf, rot_z
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
@@ -19,11 +20,6 @@ from previewctl.scene.motion import ConstantVelocity, Static
 
 Array = NDArray[np.float64]
 LINK = 0.75  # planar4 link length [m]
-
-
-def rot_z(angle: float) -> Array:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 # ------------------------------------------------------------------------------------ identities

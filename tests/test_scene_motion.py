@@ -9,6 +9,7 @@ import copy
 
 import numpy as np
 import pytest
+from helpers import rot_x, rot_y, rot_z
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -27,21 +28,6 @@ from previewctl.scene.motion import (
 )
 
 WHERE = "obstacles[2].motion"
-
-
-def rot_x(a: float) -> NDArray[np.float64]:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def rot_y(a: float) -> NDArray[np.float64]:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def rot_z(a: float) -> NDArray[np.float64]:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def all_motions() -> list[Motion]:

@@ -1,4 +1,7 @@
-"""Redundancy maps: the planar closed form and the general Newton map put the hand on the target.
+"""Tests of the redundancy maps (:mod:`previewctl.search.redundancy`, :mod:`previewctl.search.maps`,
+:mod:`previewctl.search.newton`, :mod:`previewctl.planar.redundancy`) and of
+:mod:`previewctl.search.scoring`: the planar closed form and the general Newton map put the hand on
+the target.
 
 Tolerances: the closed form is exact to 1e-9 m; the Newton map promises its ``tolerance`` (1e-4 m by
 default) on every configuration it flags reachable.
@@ -26,21 +29,6 @@ from previewctl.search.scoring import score
 
 PLANAR_TOL = 1e-9  # [m]
 NEWTON_TOL = 1e-4  # [m], NewtonRedundancy's default tolerance
-
-
-@pytest.fixture(scope="module")
-def planar4() -> Robot:
-    return load_robot("planar4")
-
-
-@pytest.fixture(scope="module")
-def panda() -> Robot:
-    return load_robot("panda")
-
-
-@pytest.fixture(scope="module")
-def ur5() -> Robot:
-    return load_robot("ur5")
 
 
 def tip_positions(robot: Robot, Q: np.ndarray) -> np.ndarray:

@@ -1,0 +1,122 @@
+"""Plain helpers the test modules share: rotations, a planar4 scenario document, a random URDF chain.
+
+Fixtures live in ``conftest.py``; functions that tests call directly live here and are imported as
+``from helpers import rot_z`` (pytest puts ``tests/`` on ``sys.path``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from hypothesis import strategies as st
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+# A hypothesis ``draw`` function, or a seeded numpy generator.
+Source = np.random.Generator | Callable[[st.SearchStrategy[Any]], Any]
+
+PLANAR_Q0 = [0.6, 1.0, -1.2, -1.0]
+"""A planar4 start configuration [rad] whose hand is at :data:`PLANAR_START`."""
+PLANAR_START = [1.9069, 1.0417]
+"""planar4's hand [m] at :data:`PLANAR_Q0`."""
+
+
+def rot_x(angle: float) -> Array:
+    """Rotation about x by ``angle`` [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rot_y(angle: float) -> Array:
+    """Rotation about y by ``angle`` [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def rot_z(angle: float) -> Array:
+    """Rotation about z by ``angle`` [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def planar_doc(**sections: Any) -> dict[str, Any]:
+    """A planar4 scenario document: the hand along a 0.5 m line in 5 s, no obstacle, controller ``none``.
+
+    Each keyword replaces a whole section (``obstacles=[...]``, ``timing={"duration": 2.0}``, ...).
+    Without ``timing`` the run lasts until the path ends (5 s).
+    """
+    doc: dict[str, Any] = {
+        "name": "planar_test",
+        "robot": {"source": "planar4", "q0": PLANAR_Q0},
+        "path": {"waypoints": [PLANAR_START, [1.6069, 0.6417]], "duration": 5.0},
+        "controller": {"name": "none"},
+    }
+    doc.update(sections)
+    return doc
+
+
+def _uniform(source: Source, low: float, high: float) -> float:
+    """One float in ``[low, high]`` from either a numpy generator or a hypothesis ``draw``."""
+    if isinstance(source, np.random.Generator):
+        return float(source.uniform(low, high))
+    return float(source(st.floats(low, high, allow_nan=False, allow_infinity=False)))
+
+
+def random_chain_urdf(source: Source, n_joints: int) -> str:
+    """URDF text of a random serial chain of ``n_joints`` revolute joints.
+
+    Each joint has a random unit axis, a random origin (xyz in +-0.4 m, rpy in +-pi) and limits
+    +-pi; each moving link carries a small cylinder collision. A fixed joint puts a ``tip`` link at
+    a random offset from the last joint.
+
+    Args:
+        source: a seeded ``np.random.Generator`` or a hypothesis ``draw`` function.
+        n_joints: number of revolute joints.
+    """
+
+    def xyz() -> str:
+        return " ".join(repr(_uniform(source, -0.4, 0.4)) for _ in range(3))
+
+    def rpy() -> str:
+        return " ".join(repr(_uniform(source, -np.pi, np.pi)) for _ in range(3))
+
+    def axis() -> str:
+        # uniform on the sphere: z uniform in [-1, 1], azimuth uniform: always a unit vector
+        z, phi = _uniform(source, -1.0, 1.0), _uniform(source, 0.0, 2.0 * np.pi)
+        rho = float(np.sqrt(max(0.0, 1.0 - z * z)))
+        return f"{rho * float(np.cos(phi))!r} {rho * float(np.sin(phi))!r} {z!r}"
+
+    inertial = (
+        '<inertial><mass value="1.0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+    )
+    parts = ['<?xml version="1.0"?>', '<robot name="random_chain">', '  <link name="link0"/>']
+    for k in range(1, n_joints + 1):
+        parts += [
+            f'  <joint name="joint{k}" type="revolute">',
+            f'    <parent link="link{k - 1}"/>',
+            f'    <child link="link{k}"/>',
+            f'    <origin xyz="{xyz()}" rpy="{rpy()}"/>',
+            f'    <axis xyz="{axis()}"/>',
+            f'    <limit lower="{-np.pi!r}" upper="{np.pi!r}" effort="10" velocity="1"/>',
+            "  </joint>",
+            f'  <link name="link{k}">',
+            f"    {inertial}",
+            "    <collision>",
+            '      <origin xyz="0 0 0.05" rpy="0 0 0"/>',
+            '      <geometry><cylinder radius="0.02" length="0.1"/></geometry>',
+            "    </collision>",
+            "  </link>",
+        ]
+    parts += [
+        '  <joint name="tip_joint" type="fixed">',
+        f'    <parent link="link{n_joints}"/>',
+        '    <child link="tip"/>',
+        f'    <origin xyz="{xyz()}" rpy="0 0 0"/>',
+        "  </joint>",
+        '  <link name="tip"/>',
+        "</robot>",
+    ]
+    return "\n".join(parts) + "\n"
