@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 from previewctl.errors import ConfigurationError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.genes import (
     Candidate,
@@ -18,10 +19,9 @@ from previewctl.search.genes import (
     gene_periodic,
     halton,
     joint_distance,
-    joint_periodic,
     reach_check,
 )
-from previewctl.search.maps import joint_angles, redundancy_map
+from previewctl.search.maps import redundancy_map
 from previewctl.search.redundancy import RedundancyMap, parse_target
 from previewctl.search.scoring import score, score_configurations
 from previewctl.types import Array
@@ -68,8 +68,8 @@ def _grid_axes(redundancy: RedundancyMap, resolution: float) -> tuple[Array, ...
     periodic = gene_periodic(redundancy)
     for lo, hi, per in zip(redundancy.gene_lower, redundancy.gene_upper, periodic, strict=True):
         if per:
-            count = max(1, round(2 * np.pi / resolution))
-            axes.append(np.arange(count, dtype=np.float64) * (2 * np.pi / count))
+            count = max(1, round(FULL_TURN / resolution))
+            axes.append(np.arange(count, dtype=np.float64) * (FULL_TURN / count))
         else:
             count = max(1, int(np.floor((hi - lo) / resolution + 1e-9)) + 1)
             axes.append(lo + np.arange(count) * resolution)
@@ -182,18 +182,18 @@ def explore(
         return Candidate(solved[0], int(solved_branch[0]), scored.Q[i].copy(), float(S[i]))
 
     best = candidate(best_i)
-    periodic = joint_periodic(robot)
+    periodic = robot.joints.full_turn
     if method == "grid":
         S_map = S.reshape((branches, *(len(a) for a in axes)))
         maxima = np.flatnonzero(_grid_maxima(S_map, gene_periodic(red)).ravel())
         order = maxima[np.argsort(-S[maxima], kind="stable")]
-        picked = distinct(joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
+        picked = distinct(robot.angles_of(scored.Q[order]), periodic, min_separation, top_k)
         kept = [int(order[k]) for k in picked]
     else:
         S_map = None
         valid = np.flatnonzero(S > 0)
         order = valid[np.argsort(-S[valid], kind="stable")][:5000]
-        angles = joint_angles(robot, scored.Q[order])
+        angles = robot.angles_of(scored.Q[order])
         kept = []
         for rank in range(order.size):
             if len(kept) >= top_k:
