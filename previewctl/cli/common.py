@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TypeAlias
 
 import numpy as np
 
@@ -19,6 +20,10 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"previewctl: error: {message} (see '{self.prog} --help')\n")
         raise SystemExit(EXIT_USAGE)
+
+
+Commands: TypeAlias = "argparse._SubParsersAction[ArgumentParser]"
+"""Where each command module adds its subparser (``add_parser(commands)``)."""
 
 
 def parse_vector(text: str, name: str) -> np.ndarray:
