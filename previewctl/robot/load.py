@@ -102,18 +102,7 @@ def load_robot(
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
     name, model, collision = _load_source(source, package_dirs)
-    if model.nv == 0:
-        raise RobotLoadError(f"robot {name!r} has no movable joint")
-    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
-    locked = [j for j in range(1, model.njoints) if j not in chain]
-    if lock is not None:
-        for joint_name in lock:
-            if not model.existJointName(joint_name):
-                raise UnknownNameError("joint", joint_name, model.names[1:])
-    if locked:
-        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
-    if model.nv == 0:
-        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
+    model, collision = _reduce(name, model, collision, lock)
     tip_frame = tip if tip is not None else _default_tip(model)
     if not model.existFrame(tip_frame):
         raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
@@ -180,6 +169,30 @@ def _load_urdf(
 
 
 # --------------------------------------------------------------------------------- chain and tip
+
+
+def _reduce(
+    name: str, model: pin.Model, collision: pin.GeometryModel, lock: Sequence[str] | None
+) -> tuple[pin.Model, pin.GeometryModel]:
+    """The model with the ``lock`` joints (default: every joint off the default chain) locked at neutral.
+
+    Raises:
+        RobotLoadError: no movable joint before or after locking.
+        UnknownNameError: a ``lock`` name that is not a joint.
+    """
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r} has no movable joint")
+    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
+    locked = [j for j in range(1, model.njoints) if j not in chain]
+    if lock is not None:
+        for joint_name in lock:
+            if not model.existJointName(joint_name):
+                raise UnknownNameError("joint", joint_name, model.names[1:])
+    if locked:
+        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
+    return model, collision
 
 
 def _height(model: pin.Model, j: int) -> int:
