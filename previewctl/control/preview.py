@@ -15,6 +15,7 @@ from previewctl.control.tracking import gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
+from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
 from previewctl.types import Array
@@ -57,17 +58,13 @@ def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequenc
 
 
 def wrapped_difference(robot: Robot, q: Array, target: Array) -> Array:
-    """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more."""
-    diff: Array = np.array(pin.difference(robot.model, q, target), dtype=np.float64)
-    model = robot.model
-    lo, hi = robot.lower_limits, robot.upper_limits
-    for j in range(1, model.njoints):
-        joint = model.joints[j]
-        if joint.nq == 1 and joint.nv == 1 and joint.shortname().startswith(("JointModelR", "JointModelRevolute")):
-            iq, iv = joint.idx_q, joint.idx_v
-            if hi[iq] - lo[iq] >= 2 * np.pi - 1e-9:
-                diff[iv] = (diff[iv] + np.pi) % (2 * np.pi) - np.pi
-    return diff
+    """``target ⊖ q`` ``(nv,)`` [rad or m], the full-turn angles wrapped into [−π, π).
+
+    Continuous joints need no wrapping: ``pin.difference`` already returns their angle.
+    """
+    diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
+    wrap = robot.joints.full_turn & ~robot.joints.continuous
+    return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
 
 
 class PreviewController:
