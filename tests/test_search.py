@@ -19,8 +19,8 @@ from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
 from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA, step_together
-from previewctl.search.genes import halton, joint_periodic
-from previewctl.search.maps import joint_angles, redundancy_map
+from previewctl.search.genes import halton
+from previewctl.search.maps import redundancy_map
 from previewctl.search.redundancy import wrap_angle
 
 # The paper's hand positions A-F (section 7: A = (10 cm, 140 cm), five 75 cm segments).
@@ -87,7 +87,7 @@ def _neighbours(S_map: np.ndarray, b: int, i: int, j: int) -> np.ndarray:
 
 
 def test_peaks_are_distinct_local_maxima(planar4: Robot, landscapes: list[Landscape]) -> None:
-    periodic = joint_periodic(planar4)
+    periodic = planar4.joints.full_turn
     for land in landscapes:
         assert land.S_map is not None
         assert 1 <= len(land.peaks) <= 4
@@ -97,7 +97,7 @@ def test_peaks_are_distinct_local_maxima(planar4: Robot, landscapes: list[Landsc
             i, j = (round(np.degrees(g)) % 360 for g in np.mod(peak.genes, 2 * np.pi))
             assert land.S_map[peak.branch, i, j] == peak.S > 0
             assert np.all(_neighbours(land.S_map, peak.branch, i, j) <= peak.S)
-        angles = joint_angles(planar4, np.array([p.q for p in land.peaks]))
+        angles = planar4.angles_of(np.array([p.q for p in land.peaks]))
         for a in range(len(angles)):
             for b in range(a + 1, len(angles)):
                 diff = np.where(periodic, wrap_angle(angles[a] - angles[b]), angles[a] - angles[b])
@@ -143,9 +143,9 @@ def test_explore_samples_on_panda() -> None:
     tip = ev(land.best.q).tip_position[0]
     assert np.linalg.norm(tip - target) < 1e-4
     # a sampled peak has no better sample within the separation radius
-    periodic = joint_periodic(robot)
+    periodic = robot.joints.full_turn
     Q = np.array([redundancy_map(robot).solve(land.genes[i : i + 1], 0, target)[0][0] for i in range(96)])
-    angles = joint_angles(robot, Q)
+    angles = robot.angles_of(Q)
     for peak in land.peaks:
         d = np.linalg.norm(np.where(periodic, wrap_angle(angles - peak.q), angles - peak.q), axis=1)
         assert np.all(land.S[d < 0.35] <= peak.S)

@@ -21,7 +21,8 @@ from previewctl.robot.model import Robot
 from previewctl.sim.log import NPZ_NAME, SUMMARY_NAME, RunResult, load_run, load_summary, save_run
 from previewctl.sim.loop import frame_index, simulate
 from previewctl.sim.scenario import Scenario, Timing, scenario_from_dict
-from previewctl.viz.figures import make_figures, obstacle_outline, strobe_plot
+from previewctl.viz.drawing import obstacle_outline
+from previewctl.viz.figures import make_figures, strobe_plot
 
 BOX = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0, 1.2, 0.0], "rpy": [0, 0, 0.3]}
 

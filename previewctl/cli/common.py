@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import TextIO
+from typing import TextIO, TypeAlias
 
 import numpy as np
 from tqdm import tqdm
@@ -22,6 +22,10 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"previewctl: error: {message} (see '{self.prog} --help')\n")
         raise SystemExit(EXIT_USAGE)
+
+
+Commands: TypeAlias = "argparse._SubParsersAction[ArgumentParser]"
+"""Where each command module adds its subparser (``add_parser(commands)``)."""
 
 
 def parse_vector(text: str, name: str) -> np.ndarray:

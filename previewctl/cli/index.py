@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.cli.common import finite_or_none, parse_vector
+from previewctl.cli.common import Commands, add_evaluation_options, finite_or_none, parse_vector
 from previewctl.index.amsi import IndexParams, avoidance
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.potential import Potential
@@ -17,9 +17,25 @@ from previewctl.scene.file import load_scene
 from previewctl.scene.shapes import Scene
 
 
+def add_parser(commands: Commands) -> None:
+    """The ``index`` subcommand and its options."""
+    index = commands.add_parser(
+        "index",
+        help="avoidance manipulability and AMSIP of one configuration",
+        description="Print the per-control-point avoidance table (rank, singular values, volume V_i), "
+        "the per-link clearance and S = E + U for one configuration.",
+    )
+    index.add_argument("--robot", default="planar4",
+                       help="URDF path, shipped or example-robot-data name (default planar4)")
+    index.add_argument("--q", required=True, help="configuration, comma-separated [rad], e.g. 1.2,1.8,-2.9,1.5")
+    index.add_argument("--degrees", action="store_true", help="read --q in degrees")
+    add_evaluation_options(index)
+    index.add_argument("--json", action="store_true", help="print JSON")
+    index.set_defaults(func=cmd_index)
+
+
 def cmd_index(args: argparse.Namespace) -> int:
     """Print the per-point avoidance table and AMSIP for one configuration."""
-
     robot = load_robot(args.robot, geometry=args.geometry)
     q = parse_vector(args.q, "q")
     if args.degrees:

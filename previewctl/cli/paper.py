@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from pathlib import Path
 
-from previewctl.cli.common import ProgressBar
+from previewctl.cli.common import Commands, ProgressBar
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
 from previewctl.sim.paper import PAPER_CONTROLLERS, run_paper
@@ -13,11 +14,25 @@ from previewctl.sim.scenario import Scenario
 from previewctl.viz.figures import make_figures
 
 
+def add_parser(commands: Commands) -> None:
+    """The ``paper`` subcommand and its options."""
+    paper = commands.add_parser(
+        "paper",
+        help="the paper's planar experiment with every controller (the main job)",
+        description="Run the canonical planar scene (scenarios/paper_planar.toml: planar4 tracing five 0.75 m "
+        "segments along an inverted staircase in 50 s, with a pillar trap) with none, gradient, single "
+        "(t~ = 10 s), multi (t~ = 5 s, k = 0.3, 0.65, 0.05) and reach; print the comparison table; write "
+        "each run's log and figures to OUT/<controller>/ and OUT/summary.json.",
+    )
+    paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
+    paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all five)")
+    paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
+    paper.set_defaults(func=cmd_paper)
+
+
 def cmd_paper(args: argparse.Namespace) -> int:
     """Run the canonical planar scene with every controller: comparison table, figures, summary.json."""
-    from pathlib import Path
-
-
     names = [n.strip() for n in args.controllers.split(",")] if args.controllers else list(PAPER_CONTROLLERS)
     for name in names:
         if name not in PAPER_CONTROLLERS:

@@ -6,12 +6,21 @@ import argparse
 import json
 import sys
 
+from previewctl.cli.common import Commands
 from previewctl.robot.load import example_robot_names, load_robot, shipped_robot_names
+
+
+def add_parser(commands: Commands) -> None:
+    """The ``robots`` subcommand and its options."""
+    robots = commands.add_parser("robots", help="list the robot names that load")
+    robots.add_argument("--all", action="store_true", help="try every example-robot-data name (slow)")
+    robots.add_argument("--json", action="store_true", help="print JSON")
+    robots.add_argument("--verbose", action="store_true", help="say why a robot does not load")
+    robots.set_defaults(func=cmd_robots)
 
 
 def cmd_robots(args: argparse.Namespace) -> int:
     """List the robot names that load."""
-
     names = list(shipped_robot_names())
     if args.all:
         names += list(example_robot_names())

@@ -3,19 +3,36 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from previewctl.cli.common import ProgressBar
+from previewctl.cli.common import Commands, ProgressBar
 from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.viz.figures import make_figures
 
 
+def add_parser(commands: Commands) -> None:
+    """The ``run`` subcommand and its options."""
+    run = commands.add_parser(
+        "run",
+        help="simulate a scenario file and write its log and figures",
+        description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
+        "(run.npz, summary.json) and the figures go to --out.",
+    )
+    run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
+    run.add_argument("--controller", choices=("none", "gradient", "single", "multi", "reach"),
+                     help="override the scenario's controller")
+    run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
+    run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    run.add_argument("--continue-after-collision", action="store_true",
+                     help="log collisions and keep going instead of stopping at the first one")
+    run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
+    run.set_defaults(func=cmd_run)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
-    from pathlib import Path
-
-
     scenario = load_scenario(args.scenario)
     name = args.controller or scenario.controller.name
     out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"

@@ -17,10 +17,9 @@ from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
-from previewctl.search.genes import joint_periodic
-from previewctl.search.maps import joint_angles
 from previewctl.types import Array
 
 
@@ -61,20 +60,15 @@ def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequenc
 
 
 def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int, ...] = ()) -> Array:
-    """``target ⊖ q`` ``(nv,)``, wrapped into (−π, π] for revolute joints spanning a full turn or more,
-    except the velocity indices in ``keep`` (their plain difference is kept)."""
-    diff: Array = np.array(pin.difference(robot.model, q, target), dtype=np.float64)
-    model = robot.model
-    lo, hi = robot.lower_limits, robot.upper_limits
-    for j in range(1, model.njoints):
-        if model.joints[j].idx_v in keep:
-            continue
-        joint = model.joints[j]
-        if joint.nq == 1 and joint.nv == 1 and joint.shortname().startswith(("JointModelR", "JointModelRevolute")):
-            iq, iv = joint.idx_q, joint.idx_v
-            if hi[iq] - lo[iq] >= 2 * np.pi - 1e-9:
-                diff[iv] = (diff[iv] + np.pi) % (2 * np.pi) - np.pi
-    return diff
+    """``target ⊖ q`` ``(nv,)`` [rad or m], the full-turn angles wrapped into [−π, π), except the
+    velocity indices in ``keep`` (their plain difference is kept).
+
+    Continuous joints need no wrapping: ``pin.difference`` already returns their angle.
+    """
+    diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
+    wrap = robot.joints.full_turn & ~robot.joints.continuous
+    wrap[list(keep)] = False
+    return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
 
 
 class PreviewController:
@@ -127,7 +121,7 @@ class PreviewController:
         self._coherent = params.coherent
         self._trackers = [
             PeakTracker(
-                lambda Q: joint_angles(robot, Q), joint_periodic(robot),
+                robot.angles_of, robot.joints.full_turn,
                 track_radius=params.track_radius, settle_frames=params.settle_frames,
             )
             for _ in self.searches

@@ -17,8 +17,7 @@ from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
-from previewctl.search.genes import joint_distance, joint_periodic
-from previewctl.search.maps import joint_angles
+from previewctl.search.genes import joint_distance
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array
 
@@ -103,7 +102,6 @@ class ReachController:
         # stretched wrist), and a node near the last route's node of its level keeps its identity unless
         # another route beats it by the hysteresis margin
         self._keep = (robot.nv - 1,) if coherent else ()
-        self._periodic = joint_periodic(robot)
 
     @property
     def route(self) -> Route | None:
@@ -180,8 +178,8 @@ class ReachController:
         route = self._route
         if not self.params.coherent or route is None or level >= len(route.nodes) or not len(nodes):
             return np.zeros(len(nodes), dtype=bool)
-        angles = joint_angles(self.robot, np.vstack([route.nodes[level][None], nodes]))
-        distance = joint_distance(angles[1:], angles[:1], self._periodic)[:, 0]
+        angles = self.robot.angles_of(np.vstack([route.nodes[level][None], nodes]))
+        distance = joint_distance(angles[1:], angles[:1], self.robot.joints.full_turn)[:, 0]
         return np.asarray(distance <= self.params.track_radius)
 
     def _update(self, t: float, q: Array, path: HandPath) -> tuple[Array, Array]:

@@ -73,7 +73,7 @@ def damped_pseudo_inverse(J: Array, damping: float, threshold: float) -> tuple[A
 def joint_velocity_bounds(robot: Robot, q: Array, dt: float) -> tuple[Array, Array]:
     """Per-velocity-coordinate bounds that keep ``q + q̇ dt`` within the position limits.
 
-    Joints with ``nq ≠ nv`` (continuous) or infinite limits get ``(−inf, inf)``.
+    Coordinates without a finite limit (continuous joints among them) get ``−inf`` / ``inf`` on that side.
 
     Args:
         robot: the arm.
@@ -83,25 +83,16 @@ def joint_velocity_bounds(robot: Robot, q: Array, dt: float) -> tuple[Array, Arr
     Returns:
         ``(low, high)`` [rad/s], each ``(nv,)``.
     """
-    low, high = np.full(robot.nv, -np.inf), np.full(robot.nv, np.inf)
-    lo, hi = robot.lower_limits, robot.upper_limits
-    model = robot.model
-    for j in range(1, model.njoints):
-        joint = model.joints[j]
-        if joint.nq != joint.nv:
-            continue
-        for k in range(joint.nq):
-            iq, iv = joint.idx_q + k, joint.idx_v + k
-            if np.isfinite(lo[iq]):
-                low[iv] = (lo[iq] - q[iq]) / dt
-            if np.isfinite(hi[iq]):
-                high[iv] = (hi[iq] - q[iq]) / dt
+    facts = robot.joints
+    position = np.asarray(q, dtype=float)[facts.q_index]  # continuous coordinates (index -1) are unused
+    low = np.where(np.isfinite(facts.lower), (facts.lower - position) / dt, -np.inf)
+    high = np.where(np.isfinite(facts.upper), (facts.upper - position) / dt, np.inf)
     return low, high
 
 
 def effective_velocity_limits(robot: Robot, scale: float = 1.0) -> Array:
     """``scale`` × the URDF speed limits [rad/s], ``inf`` where the URDF gives none (≤ 0 or non-finite)."""
-    limits = robot.velocity_limits
+    limits = robot.joints.velocity
     return np.where(np.isfinite(limits) & (limits > 0), limits * scale, np.inf)
 
 

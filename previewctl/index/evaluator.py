@@ -27,9 +27,9 @@ from previewctl.errors import ConfigurationError
 from previewctl.index.amsi import IndexParams, amsi_from_kinematics
 from previewctl.index.potential import Potential
 from previewctl.kinematics import kinematics, kinematics_reader
-from previewctl.planar import distance as planar_distance
+from previewctl.planar import kernels as planar_kernels
 from previewctl.planar.arm import PlanarArm
-from previewctl.planar.kernels import planar_kernel
+from previewctl.planar.distance import planar_kernel
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
 from previewctl.scene.motion import Static
@@ -98,7 +98,7 @@ class Evaluator:
             i: planar_kernel(o, 0.0) for i, o in enumerate(self.scene.obstacles) if isinstance(o.motion, Static)
         } if robot.planar is not None else {}
 
-    def _planar_kernels(self, t: float) -> list[planar_distance.Kernel] | None:
+    def _planar_kernels(self, t: float) -> list[planar_kernels.Kernel] | None:
         """One distance kernel per obstacle at time ``t`` [s], or ``None`` if the planar path cannot serve."""
         if self.robot.planar is None:
             return None
@@ -145,23 +145,23 @@ class Evaluator:
         return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
 
     def _planar(
-        self, Q: Array, arm: PlanarArm, kernels: list[planar_distance.Kernel], chunk: int = 16384
+        self, Q: Array, arm: PlanarArm, kernels: list[planar_kernels.Kernel], chunk: int = 16384
     ) -> Evaluation:
         if Q.shape[0] <= chunk:
             return self._planar_chunk(Q, arm, kernels)
         parts = [self._planar_chunk(Q[s : s + chunk], arm, kernels) for s in range(0, Q.shape[0], chunk)]
         return Evaluation(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Evaluation)})
 
-    def _planar_chunk(self, Q: Array, arm: PlanarArm, kernels: list[planar_distance.Kernel]) -> Evaluation:
+    def _planar_chunk(self, Q: Array, arm: PlanarArm, kernels: list[planar_kernels.Kernel]) -> Evaluation:
         chain = arm.chain
         points, trig = arm.joint_origins(Q)
         _, amsi = arm.amsi(points)
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)
         if self.scene.obstacles:
             a, b = arm.link_segments(points, trig)
-            capsule_d = planar_distance.apply(kernels[0], a, b, chain.link_radii)
+            capsule_d = planar_kernels.apply(kernels[0], a, b, chain.link_radii)
             for kernel in kernels[1:]:
-                np.minimum(capsule_d, planar_distance.apply(kernel, a, b, chain.link_radii), out=capsule_d)
+                np.minimum(capsule_d, planar_kernels.apply(kernel, a, b, chain.link_radii), out=capsule_d)
             for slot, link in enumerate(chain.link_index):
                 np.minimum(distances[:, link], capsule_d[:, slot], out=distances[:, link])
         tip = np.zeros((Q.shape[0], 3))

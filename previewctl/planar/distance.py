@@ -5,8 +5,9 @@ ball of radius ``r`` [m]. Every function takes a batch of links, ``a`` and ``b``
 ``(B, L, 3)`` and ``radius`` of shape ``(L,)``, and returns the ``(B, L)`` signed distances [m]
 between each link and one obstacle: positive is clearance, ``<= 0`` touching or overlapping.
 No Python loop runs over configurations: each function is a fixed sequence of numpy operations
-over blocks of ~16k links (see `apply`). For a 4-link arm, `to_box` evaluates about 2.3 and
-`to_capsule` about 3.4 million configurations per second (measured on a 2-core VM).
+over blocks of ~16k links (the kernels of :mod:`previewctl.planar.kernels`). For a 4-link arm,
+`to_box` evaluates about 2.3 and `to_capsule` about 3.4 million configurations per second (measured
+on a 2-core VM).
 
 * Sphere and capsule obstacles are exact in 3-D (the obstacle may leave the plane):
   ``d(S1, S2) - r1 - r2`` for the axes ``S1, S2``, minus the penetration depth on overlap.
@@ -17,25 +18,31 @@ over blocks of ~16k links (see `apply`). For a 4-link arm, `to_box` evaluates ab
 * A half-space ``{x : n.x <= offset}`` gives ``min(n.a, n.b) - offset - r`` (n normalised).
 
 All of them agree with Coal's ``coal.distance`` on separated pairs (``tests/test_planar_distance.py``).
+
+Each obstacle has a builder (``sphere_kernel`` ...) that validates it once and returns the kernel to
+apply to many batches, and a one-shot function (``to_sphere`` ...) that also checks the links.
+:func:`planar_kernel` picks the builder for a scene obstacle at a time, or says the closed form does
+not apply.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 from functools import partial
 
 import numpy as np
 import numpy.typing as npt
 
 from previewctl.errors import ConfigurationError, SceneError
-
-FloatArray = npt.NDArray[np.float64]
-
-_TINY = float(np.finfo(np.float64).tiny)
-# Below this value of sin^2 of the angle between two segments they count as parallel (see
-# `_capsule_kernel`): the closed form for the interior point is then ill-conditioned.
-_PARALLEL_SIN2 = 1e-14
-
+from previewctl.planar.kernels import (
+    FloatArray,
+    Kernel,
+    apply,
+    halfspace_distance,
+    point_distance,
+    rectangle_distance,
+    segment_distance,
+)
+from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Obstacle, Sphere
 
 # --------------------------------------------------------------------------------------- checks
 
@@ -133,162 +140,6 @@ def cylinder_is_planar(
     return _z_axis_vertical(_rotation(rotation), atol) and abs(c[2]) <= half + atol
 
 
-# ---------------------------------------------------------------------------------- kernels
-#
-# A kernel maps one block of links, ``a`` and ``b`` of shape ``(n, L, 3)``, to ``(n, L)`` signed
-# distances; `apply` runs it over blocks of about `_BLOCK_LINKS` links. Every operation inside
-# is a numpy operation over the whole block: the blocks only keep the ~30 temporaries of a kernel
-# in the CPU cache, which made the kernels 2-3x faster than one pass over 400,000 links.
-
-Kernel = Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
-_BLOCK_LINKS = 16384
-
-
-def apply(kernel: Kernel, a: FloatArray, b: FloatArray, radius: FloatArray) -> FloatArray:
-    """Distances ``(..., L)`` [m] of a prepared kernel (``*_kernel``) for links with ``(..., L, 3)`` end
-    points (unchecked), evaluated block by block."""
-    out = np.empty(a.shape[:-1])
-    if out.size == 0:
-        return out
-    n_links = a.shape[-2]
-    a_rows, b_rows = a.reshape(-1, n_links, 3), b.reshape(-1, n_links, 3)
-    out_rows = out.reshape(-1, n_links)
-    step = max(1, _BLOCK_LINKS // n_links)
-    for start in range(0, len(a_rows), step):
-        block = slice(start, start + step)
-        out_rows[block] = kernel(a_rows[block], b_rows[block], radius)
-    return out
-
-
-def _dot(u: Sequence[FloatArray | float], v: Sequence[FloatArray | float]) -> FloatArray:
-    """``sum_k u[k] * v[k]``, one entry per axis; at least one of each pair is an array."""
-    out = np.multiply(u[0], v[0])
-    for uk, vk in zip(u[1:], v[1:], strict=True):
-        out += uk * vk
-    return out
-
-
-def _point_segment_sq(
-    p: Sequence[FloatArray | float],
-    a: Sequence[FloatArray],
-    d: Sequence[FloatArray],
-    dd: FloatArray,
-) -> FloatArray:
-    """Squared distances from points ``p`` to the segments ``a + t d``, ``t in [0, 1]``.
-
-    Coordinates come one entry per axis (2 or 3 of them); ``dd = max(|d|^2, tiny)``, so that a
-    zero-length segment (where the numerator is exactly 0) gives ``t = 0``.
-    """
-    rel = [pk - ak for pk, ak in zip(p, a, strict=True)]
-    t = _dot(rel, d) / dd
-    np.clip(t, 0.0, 1.0, out=t)
-    diff = [rk - t * dk for rk, dk in zip(rel, d, strict=True)]
-    return _dot(diff, diff)
-
-
-def _coords(points: FloatArray, n: int) -> list[FloatArray]:
-    """The first ``n`` coordinates of ``(..., 3)`` points, one ``(...)`` view per axis."""
-    return [points[..., k] for k in range(n)]
-
-
-def _point_kernel(
-    a: FloatArray, b: FloatArray, radius: FloatArray, center: tuple[float, ...], clearance: float
-) -> FloatArray:
-    """Point-segment distance minus radii, in 3-D (sphere) or in x, y (``center`` of size 2)."""
-    pa = _coords(a, len(center))
-    d = [bk - ak for ak, bk in zip(pa, _coords(b, len(center)), strict=True)]
-    dd = np.maximum(_dot(d, d), _TINY)
-    return np.sqrt(_point_segment_sq(center, pa, d, dd)) - radius - clearance
-
-
-def _capsule_kernel(
-    a: FloatArray,
-    b: FloatArray,
-    radius: FloatArray,
-    p: tuple[float, ...],
-    d2: tuple[float, ...],
-    clearance: float,
-) -> FloatArray:
-    """Segment-segment distance by the clamped closed form, written without branches.
-
-    For the link ``a + s d1`` and the obstacle axis ``p + t d2`` (Ericson, Real-Time Collision
-    Detection, 5.1.9): ``s`` minimises ``|a + s d1 - p - t d2|^2`` over both variables and is
-    clamped to [0, 1]; then ``t`` is optimal for that ``s`` and clamped; then ``s`` is optimal for
-    that ``t`` and clamped. Each step minimises a convex quadratic exactly in one variable, so the
-    result is never worse than Ericson's, which is the exact minimum. For parallel segments
-    (``sin^2`` of their angle below `_PARALLEL_SIN2`) the first ``s`` is ill-conditioned but any
-    ``s in [0, 1]`` then leads to the exact minimum, and nearly parallel ones are off by at most
-    ``sqrt(_PARALLEL_SIN2)`` times the segment length. Zero-length segments give exactly-zero
-    numerators, and floored denominators turn them into ``s = 0`` or ``t = 0``.
-    """
-    pa = _coords(a, 3)
-    d1 = [bk - ak for ak, bk in zip(pa, _coords(b, 3), strict=True)]
-    r = [ak - pk for ak, pk in zip(pa, p, strict=True)]
-    aa = _dot(d1, d1)
-    ee = sum(ek * ek for ek in d2)
-    ab = _dot(d1, d2)
-    c = _dot(d1, r)
-    f = _dot(d2, r)
-    denom = aa * ee - ab * ab
-    floor = aa * (_PARALLEL_SIN2 * ee) + _TINY
-    s = (ab * f - c * ee) / np.maximum(denom, floor)
-    np.clip(s, 0.0, 1.0, out=s)
-    if ee > 0.0:
-        t = (ab * s + f) * (1.0 / ee)
-        np.clip(t, 0.0, 1.0, out=t)
-    else:
-        t = np.zeros_like(s)
-    s = (ab * t - c) / np.maximum(aa, _TINY)
-    np.clip(s, 0.0, 1.0, out=s)
-    w = [rk + s * dk - t * ek for rk, dk, ek in zip(r, d1, d2, strict=True)]
-    return np.sqrt(_dot(w, w)) - radius - clearance
-
-
-def _box_kernel(
-    a: FloatArray,
-    b: FloatArray,
-    radius: FloatArray,
-    center: tuple[float, float],
-    axes: tuple[float, float, float, float],
-    half: tuple[float, float],
-) -> FloatArray:
-    """Segment - rectangle distance in the box frame (see :func:`to_box`)."""
-    (cx, cy), (ux, uy, vx, vy), (hx, hy) = center, axes, half
-    ax, ay = a[..., 0] - cx, a[..., 1] - cy
-    bx, by = b[..., 0] - cx, b[..., 1] - cy
-    pax, pay = ax * ux + ay * uy, ax * vx + ay * vy  # end points in the box frame
-    pbx, pby = bx * ux + by * uy, bx * vx + by * vy
-    dx, dy = pbx - pax, pby - pay
-    adx, ady = np.abs(dx), np.abs(dy)
-    # w / |d| is the signed offset of the segment's line from the box center.
-    w = dx * pay - dy * pax
-    # Separating axes x, y (tests doubled on both sides) and the line's normal.
-    touching = np.abs(pax + pbx) <= 2.0 * hx + adx
-    touching &= np.abs(pay + pby) <= 2.0 * hy + ady
-    touching &= np.abs(w) <= hx * ady + hy * adx
-    # Separated: end point -> rectangle, and the corner nearest the segment's line -> segment.
-    # The segment's nearest point is interior only if its line misses the rectangle, and then it
-    # faces the corner that lies farthest toward the line (any choice is an upper bound).
-    dist_sq = np.minimum(
-        np.maximum(np.abs(pax) - hx, 0.0) ** 2 + np.maximum(np.abs(pay) - hy, 0.0) ** 2,
-        np.maximum(np.abs(pbx) - hx, 0.0) ** 2 + np.maximum(np.abs(pby) - hy, 0.0) ** 2,
-    )
-    side = np.sign(w)
-    corner = (-hx * side * np.sign(dy), hy * side * np.sign(dx))
-    dd = np.maximum(dx * dx + dy * dy, _TINY)
-    np.minimum(dist_sq, _point_segment_sq(corner, (pax, pay), (dx, dy), dd), out=dist_sq)
-    dist = np.sqrt(dist_sq)
-    dist[touching] = 0.0
-    return dist - radius
-
-
-def _halfspace_kernel(
-    a: FloatArray, b: FloatArray, radius: FloatArray, normal: tuple[float, ...], offset: float
-) -> FloatArray:
-    height = np.minimum(_dot(_coords(a, 3), normal), _dot(_coords(b, 3), normal))
-    return height - offset - radius
-
-
 # -------------------------------------------------------------------------------- distances
 
 
@@ -298,7 +149,7 @@ def sphere_kernel(
 ) -> Kernel:
     """The validated distance kernel of :func:`to_sphere` (build once, apply with :func:`apply`)."""
     return partial(
-        _point_kernel,
+        point_distance,
         center=tuple(_vector3(center, "sphere center").tolist()),
         clearance=_length(sphere_radius, "sphere radius"),
     )
@@ -341,7 +192,7 @@ def capsule_kernel(
     """The validated distance kernel of :func:`to_capsule` (build once, apply with :func:`apply`)."""
     q0 = _vector3(p0, "capsule p0")
     return partial(
-        _capsule_kernel,
+        segment_distance,
         p=tuple(q0.tolist()),
         d2=tuple((_vector3(p1, "capsule p1") - q0).tolist()),
         clearance=_length(capsule_radius, "capsule radius"),
@@ -396,7 +247,7 @@ def box_kernel(
             f"rotation {rot.tolist()}, half_extents {h.tolist()}"
         )
     return partial(
-        _box_kernel,
+        rectangle_distance,
         center=(float(c[0]), float(c[1])),
         axes=(float(rot[0, 0]), float(rot[1, 0]), float(rot[0, 1]), float(rot[1, 1])),
         half=(float(h[0]), float(h[1])),
@@ -452,7 +303,7 @@ def vertical_cylinder_kernel(
             "to_vertical_cylinder needs |center_z| <= half_length so that the cylinder meets the "
             f"plane z = 0; got center {c.tolist()}, half_length {half_length!r}"
         )
-    return partial(_point_kernel, center=(float(c[0]), float(c[1])), clearance=clearance)
+    return partial(point_distance, center=(float(c[0]), float(c[1])), clearance=clearance)
 
 
 def to_vertical_cylinder(
@@ -497,7 +348,7 @@ def halfspace_kernel(
     norm = float(np.linalg.norm(n))
     if norm == 0.0 or not np.isfinite(float(offset)):
         raise SceneError(f"a half-space needs a nonzero normal and a finite offset; got {normal!r}, {offset!r}")
-    return partial(_halfspace_kernel, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
+    return partial(halfspace_distance, normal=tuple((n / norm).tolist()), offset=float(offset) / norm)
 
 
 def to_halfspace(
@@ -528,3 +379,29 @@ def to_halfspace(
     """
     a, b, radius = _links(a, b, radius)
     return apply(halfspace_kernel(normal, offset), a, b, radius)
+
+
+# ------------------------------------------------------------------------------ obstacles
+
+
+def planar_kernel(obstacle: Obstacle, t: float) -> Kernel | None:
+    """The validated planar distance kernel of ``obstacle`` at time ``t`` [s], or ``None`` when the
+    closed form does not apply (meshes, planes, boxes/cylinders not straddling the arm's plane)."""
+    shape, pose = obstacle.shape, obstacle.placement(t)
+    p, R = pose.translation, pose.rotation
+    if isinstance(shape, Sphere):
+        return sphere_kernel(p, shape.radius)
+    if isinstance(shape, Capsule):
+        axis = R[:, 2] * shape.length / 2
+        return capsule_kernel(p - axis, p + axis, shape.radius)
+    if isinstance(shape, Box):
+        half = np.array(shape.size) / 2
+        return box_kernel(p, R, half) if box_is_planar(p, R, half) else None
+    if isinstance(shape, Cylinder):
+        if not cylinder_is_planar(p, R, shape.length / 2):
+            return None
+        return vertical_cylinder_kernel(p, shape.radius, shape.length / 2)
+    if isinstance(shape, Halfspace):
+        normal = R @ np.array(shape.normal)
+        return halfspace_kernel(normal, shape.offset + float(normal @ p))
+    return None

@@ -7,7 +7,7 @@ from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
 from previewctl.robot.model import Robot
-from previewctl.search.redundancy import TWO_PI, check_genes, fit_limits, parse_target, wrap_angle
+from previewctl.search.redundancy import check_genes, fit_limits, parse_target, wrap_angle
 from previewctl.types import Array
 
 
@@ -47,10 +47,9 @@ class PlanarRedundancy:
         self.alpha1, self.alpha2 = float(np.arctan2(a[1], a[0])), float(np.arctan2(b[1], b[0]))
         self.link_lengths = (self.l1, self.l2)
         self.reach_tolerance = float(reach_tolerance)
-        self.lower, self.upper = robot.lower_limits, robot.upper_limits
-        full = (self.upper - self.lower) >= TWO_PI - 1e-9
+        self.lower, self.upper = robot.lower_limits, robot.upper_limits  # planar: q and v coincide
         self._covers_circle = bool(np.all(self.lower <= -np.pi) and np.all(self.upper >= np.pi))
-        self.periodic = full[: self.g].copy()
+        self.periodic = robot.joints.full_turn[: self.g].copy()
         self.gene_lower = np.where(self.periodic, -np.pi, self.lower[: self.g])
         self.gene_upper = np.where(self.periodic, np.pi, self.upper[: self.g])
         self.max_reach = float(np.sum(np.hypot(*self.chain.offsets[1:].T)) + self.l2)

@@ -102,18 +102,7 @@ def load_robot(
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
     name, model, collision = _load_source(source, package_dirs)
-    if model.nv == 0:
-        raise RobotLoadError(f"robot {name!r} has no movable joint")
-    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
-    locked = [j for j in range(1, model.njoints) if j not in chain]
-    if lock is not None:
-        for joint_name in lock:
-            if not model.existJointName(joint_name):
-                raise UnknownNameError("joint", joint_name, model.names[1:])
-    if locked:
-        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
-    if model.nv == 0:
-        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
+    model, collision = _reduce(name, model, collision, lock)
     tip_frame = tip if tip is not None else _default_tip(model)
     if not model.existFrame(tip_frame):
         raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
@@ -182,27 +171,45 @@ def _load_urdf(
 # --------------------------------------------------------------------------------- chain and tip
 
 
-def _children(model: pin.Model) -> dict[int, list[int]]:
-    kids: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
-    for j in range(1, model.njoints):
-        kids[int(model.parents[j])].append(j)
-    return kids
+def _reduce(
+    name: str, model: pin.Model, collision: pin.GeometryModel, lock: Sequence[str] | None
+) -> tuple[pin.Model, pin.GeometryModel]:
+    """The model with the ``lock`` joints (default: every joint off the default chain) locked at neutral.
+
+    Raises:
+        RobotLoadError: no movable joint before or after locking.
+        UnknownNameError: a ``lock`` name that is not a joint.
+    """
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r} has no movable joint")
+    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
+    locked = [j for j in range(1, model.njoints) if j not in chain]
+    if lock is not None:
+        for joint_name in lock:
+            if not model.existJointName(joint_name):
+                raise UnknownNameError("joint", joint_name, model.names[1:])
+    if locked:
+        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
+    if model.nv == 0:
+        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
+    return model, collision
 
 
-def _depth(kids: dict[int, list[int]], j: int) -> int:
-    return 1 + max((_depth(kids, c) for c in kids[j]), default=0)
+def _height(model: pin.Model, j: int) -> int:
+    """Joints on the longest path from joint ``j`` down to a leaf, ``j`` included."""
+    return 1 + max((_height(model, int(c)) for c in model.children[j]), default=0)
 
 
 def _default_chain(model: pin.Model) -> set[int]:
     """Joints from the root down the deepest subtree, stopping above a branch of leaves (fingers)."""
-    kids = _children(model)
+    kids = {j: [int(c) for c in model.children[j]] for j in range(model.njoints)}
     chain: set[int] = set()
     node = 0
     while kids[node]:
         children = kids[node]
         if len(children) > 1 and all(not kids[c] for c in children):
             break
-        node = max(children, key=lambda c: (_depth(kids, c), -c))
+        node = max(children, key=lambda c: (_height(model, c), -c))
         chain.add(node)
     return chain
 
@@ -215,7 +222,7 @@ def _chain_without(model: pin.Model, lock: Sequence[str]) -> set[int]:
 
 def _default_tip(model: pin.Model) -> str:
     """A tool-like frame on the last joint, else the frame furthest from it in the frame tree."""
-    last = max(range(1, model.njoints), key=lambda j: (_joint_depth(model, j), j))
+    last = max(range(1, model.njoints), key=lambda j: (len(model.supports[j]), j))  # the deepest joint
     candidates = [i for i, f in enumerate(model.frames) if f.parentJoint == last]
 
     def hops(i: int) -> int:
@@ -233,23 +240,6 @@ def _default_tip(model: pin.Model) -> str:
     return str(model.frames[best].name)
 
 
-def _joint_depth(model: pin.Model, j: int) -> int:
-    depth = 0
-    while j:
-        j, depth = int(model.parents[j]), depth + 1
-    return depth
-
-
-def _chain_joints_to(model: pin.Model, frame_id: int) -> list[int]:
-    """Joint ids from the root to the joint that carries ``frame_id``."""
-    joints: list[int] = []
-    j = int(model.frames[frame_id].parentJoint)
-    while j:
-        joints.append(j)
-        j = int(model.parents[j])
-    return joints[::-1]
-
-
 def _structural_ranks(robot: Robot) -> tuple[int, ...]:
     """Generic rank of each ``M_i``: the largest numerical rank over random configurations."""
 
@@ -262,7 +252,8 @@ def _control_points(
     model: pin.Model, tip_frame: str, requested: Sequence[str] | None, rows: slice
 ) -> tuple[str, ...]:
     """Joint names whose origins serve as control points (validated or defaulted)."""
-    chain = _chain_joints_to(model, int(model.getFrameId(tip_frame)))
+    # the joints from the root to the tip's joint (supports[j] starts with the universe, 0)
+    chain = [int(j) for j in model.supports[model.frames[model.getFrameId(tip_frame)].parentJoint]][1:]
     if requested is not None:
         for joint_name in requested:
             if not model.existJointName(joint_name):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
 from previewctl.planar.chain import PlanarChain
+from previewctl.robot.joints import JointFacts
 
 Task = Literal["planar", "position", "pose"]
 Geometry = Literal["convex", "capsules", "mesh"]
@@ -32,6 +33,8 @@ class Robot:
         guarded_links: body names whose geometry counts for clearance and collision.
         structural_ranks: generic rank of each control point's avoidance matrix ``M_i``.
         planar: the closed-form chain when the arm is planar, else ``None``.
+        joints: the per-coordinate joint facts of ``model`` (full turns, limits, index maps), computed
+            once here; every joint rule reads them.
     """
 
     name: str
@@ -43,6 +46,10 @@ class Robot:
     guarded_links: tuple[str, ...]
     structural_ranks: tuple[int, ...]
     planar: PlanarChain | None
+    joints: JointFacts = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "joints", JointFacts.of(self.model))
 
     @property
     def nq(self) -> int:
@@ -96,8 +103,8 @@ class Robot:
 
     @property
     def velocity_limits(self) -> NDArray[np.float64]:
-        """Joint speed limits [rad/s or m/s], shape ``(nv,)``."""
-        return np.array(self.model.velocityLimit, dtype=float)
+        """Joint speed limits [rad/s or m/s], shape ``(nv,)`` (a fresh copy of ``joints.velocity``)."""
+        return self.joints.velocity.copy()
 
     def neutral(self) -> NDArray[np.float64]:
         """The model's neutral configuration, shape ``(nq,)``."""
@@ -106,8 +113,7 @@ class Robot:
     def random_configurations(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         """``count`` configurations drawn uniformly within the joint limits, shape ``(count, nq)``."""
         lo, hi = self._finite_limits()
-        angles = rng.uniform(lo, hi, size=(count, self.nv))
-        return np.stack([self.configuration_from_angles(a) for a in angles]) if self.nq != self.nv else angles
+        return self.configurations_from_angles(rng.uniform(lo, hi, size=(count, self.nv)))
 
     def configuration_from_angles(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
         """Map one vector of ``nv`` joint coordinates [rad or m] to a configuration ``(nq,)``.
@@ -116,16 +122,25 @@ class Robot:
         """
         return np.asarray(pin.integrate(self.model, pin.neutral(self.model), np.asarray(angles, float)))
 
+    def configurations_from_angles(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`configuration_from_angles` of each row of ``(B, nv)`` [rad or m]: ``(B, nq)`` (a fresh array)."""
+        rows = np.array(angles, dtype=float)
+        if self.nq == self.nv:
+            return rows
+        return np.stack([self.configuration_from_angles(a) for a in rows])
+
+    def angles_of(self, Q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Joint coordinates ``(B, nv)`` [rad or m] of configurations ``(B, nq)``, the inverse of
+        :meth:`configurations_from_angles` (a continuous joint's angle in ``[-pi, pi]``)."""
+        if self.nq == self.nv:
+            return np.array(Q, dtype=float)
+        neutral = pin.neutral(self.model)
+        return np.stack([pin.difference(self.model, neutral, q) for q in Q])
+
     def _finite_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Per-velocity-coordinate limits with infinite ones replaced by +-pi."""
-        lo, hi = np.full(self.nv, -np.pi), np.full(self.nv, np.pi)
-        for j in range(1, self.model.njoints):
-            joint = self.model.joints[j]
-            if joint.nq == joint.nv:
-                sl_q, sl_v = slice(joint.idx_q, joint.idx_q + joint.nq), slice(joint.idx_v, joint.idx_v + joint.nv)
-                lo[sl_v] = np.where(np.isfinite(self.lower_limits[sl_q]), self.lower_limits[sl_q], -np.pi)
-                hi[sl_v] = np.where(np.isfinite(self.upper_limits[sl_q]), self.upper_limits[sl_q], np.pi)
-        return lo, hi
+        """Per-velocity-coordinate limits [rad or m] with missing (infinite) ones replaced by +-pi."""
+        lower, upper = self.joints.lower, self.joints.upper
+        return np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
 
     def check_configurations(self, q: object) -> tuple[NDArray[np.float64], bool]:
         """Validate ``q`` of shape ``(nq,)`` or ``(B, nq)``.
@@ -157,7 +172,4 @@ class Robot:
 
     def joint_names_by_q(self) -> tuple[str, ...]:
         """For each configuration entry, the name of the joint it belongs to."""
-        names: list[str] = []
-        for j in range(1, self.model.njoints):
-            names += [self.model.names[j]] * self.model.joints[j].nq
-        return tuple(names)
+        return tuple(str(self.model.names[int(j)]) for j in self.joints.q_joint)

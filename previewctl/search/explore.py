@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 from previewctl.errors import ConfigurationError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.genes import (
     Candidate,
@@ -18,12 +19,11 @@ from previewctl.search.genes import (
     gene_periodic,
     halton,
     joint_distance,
-    joint_periodic,
     reach_check,
 )
-from previewctl.search.maps import joint_angles, redundancy_map
+from previewctl.search.maps import redundancy_map
 from previewctl.search.redundancy import RedundancyMap, parse_target
-from previewctl.search.scoring import score, score_configurations
+from previewctl.search.scoring import Scored, score, score_configurations
 from previewctl.types import Array
 
 
@@ -68,8 +68,8 @@ def _grid_axes(redundancy: RedundancyMap, resolution: float) -> tuple[Array, ...
     periodic = gene_periodic(redundancy)
     for lo, hi, per in zip(redundancy.gene_lower, redundancy.gene_upper, periodic, strict=True):
         if per:
-            count = max(1, round(2 * np.pi / resolution))
-            axes.append(np.arange(count, dtype=np.float64) * (2 * np.pi / count))
+            count = max(1, round(FULL_TURN / resolution))
+            axes.append(np.arange(count, dtype=np.float64) * (FULL_TURN / count))
         else:
             count = max(1, int(np.floor((hi - lo) / resolution + 1e-9)) + 1)
             axes.append(lo + np.arange(count) * resolution)
@@ -135,70 +135,126 @@ def explore(
         UnreachableTargetError: no candidate puts the hand on the target.
         ConfigurationError: a bad option or target.
     """
-    if not (np.isfinite(resolution_deg) and 0 < resolution_deg <= 90):
-        raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {resolution_deg!r}")
-    top_k = check_positive_int("top_k", top_k)
-    if not (np.isfinite(min_separation) and min_separation >= 0):
-        raise ConfigurationError(f"min_separation must be >= 0 [rad], got {min_separation!r}")
+    top_k = _check_options(resolution_deg, top_k, min_separation)
     red = redundancy if redundancy is not None else redundancy_map(robot)
     goal = parse_target(target, robot)
     reach_check(red, target, robot)
-    g = int(np.asarray(red.gene_lower).size)
-    branches = int(red.branches)
-    if g <= 2:
-        axes = _grid_axes(red, np.radians(resolution_deg))
-        mesh = np.meshgrid(*axes, indexing="ij") if g else []
-        one = np.stack([m.ravel() for m in mesh], axis=1) if g else np.zeros((1, 0))
-        genes = np.tile(one, (branches, 1))
-        branch = np.repeat(np.arange(branches), one.shape[0])
-        method = "grid"
+    if int(np.asarray(red.gene_lower).size) <= 2:
+        design = _grid_design(red, np.radians(resolution_deg))
     else:
-        count = samples if samples is not None else (65536 if isinstance(red, PlanarRedundancy) else 1024)
-        count = check_positive_int("samples", count)
-        unit = halton(count, g, rng)
-        one = red.gene_lower + unit * (red.gene_upper - red.gene_lower)
-        genes = np.tile(one, (branches, 1))
-        branch = np.repeat(np.arange(branches), count)
-        axes = ()
-        method = "samples"
-    if method == "grid" and isinstance(red, PlanarRedundancy):
-        scored = score_configurations(evaluator, *red.solve_grid(axes, target), t)
-    else:
-        scored = score(evaluator, red, genes, branch, target, t)
-    if method == "samples" and scored.reachable.any():
-        genes = genes.copy()  # the sampled genes moved onto the manifold (identity for a closed form)
-        genes[scored.reachable], branch[scored.reachable] = red.genes_of(scored.Q[scored.reachable])
+        design = _sample_design(red, samples, rng)
+    scored, genes, branch = _score_design(evaluator, red, design, target, t)
     if not scored.reachable.any():
         raise UnreachableTargetError(
             f"target {np.round(goal.position, 4).tolist()} [m]: none of {genes.shape[0]} candidates of robot "
             f"{robot.name!r} reaches it"
         )
     S = scored.S
-    best_i = int(np.argmax(np.where(scored.reachable, S, -np.inf)))
-
-    def candidate(i: int) -> Candidate:
-        # the map's genes of the solved configuration (for the Newton map: the projected genes)
-        solved, solved_branch = red.genes_of(scored.Q[i : i + 1])
-        return Candidate(solved[0], int(solved_branch[0]), scored.Q[i].copy(), float(S[i]))
-
-    best = candidate(best_i)
-    periodic = joint_periodic(robot)
-    if method == "grid":
-        S_map = S.reshape((branches, *(len(a) for a in axes)))
-        maxima = np.flatnonzero(_grid_maxima(S_map, gene_periodic(red)).ravel())
-        order = maxima[np.argsort(-S[maxima], kind="stable")]
-        picked = distinct(joint_angles(robot, scored.Q[order]), periodic, min_separation, top_k)
-        kept = [int(order[k]) for k in picked]
+    best = _candidate(red, scored, int(np.argmax(np.where(scored.reachable, S, -np.inf))))
+    S_map: Array | None = None
+    if design.method == "grid":
+        S_map = S.reshape((int(red.branches), *(len(a) for a in design.axes)))
+        kept = _grid_peaks(robot, gene_periodic(red), scored, S_map, min_separation, top_k)
     else:
-        S_map = None
-        valid = np.flatnonzero(S > 0)
-        order = valid[np.argsort(-S[valid], kind="stable")][:5000]
-        angles = joint_angles(robot, scored.Q[order])
-        kept = []
-        for rank in range(order.size):
-            if len(kept) >= top_k:
-                break
-            if rank == 0 or joint_distance(angles[rank : rank + 1], angles[:rank], periodic).min() >= min_separation:
-                kept.append(int(order[rank]))
-    peaks = tuple(candidate(i) for i in kept)
-    return Landscape(goal.position, float(t), method, axes, S_map, genes, branch, S, scored.reachable, best, peaks)
+        kept = _sample_peaks(robot, scored, min_separation, top_k)
+    peaks = tuple(_candidate(red, scored, i) for i in kept)
+    return Landscape(
+        goal.position, float(t), design.method, design.axes, S_map, genes, branch, S, scored.reachable, best, peaks
+    )
+
+
+# ----------------------------------------------------------------------------- explore's steps
+
+
+def _check_options(resolution_deg: float, top_k: int, min_separation: float) -> int:
+    """Validate :func:`explore`'s options; ``top_k`` as an int."""
+    if not (np.isfinite(resolution_deg) and 0 < resolution_deg <= 90):
+        raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {resolution_deg!r}")
+    checked = check_positive_int("top_k", top_k)
+    if not (np.isfinite(min_separation) and min_separation >= 0):
+        raise ConfigurationError(f"min_separation must be >= 0 [rad], got {min_separation!r}")
+    return checked
+
+
+@dataclass(frozen=True)
+class _Design:
+    """The candidates to score: every branch of a grid over the genes, or of Halton samples.
+
+    Attributes:
+        method: ``"grid"`` or ``"samples"``.
+        axes: the grid axes [rad] (``()`` for samples).
+        genes: ``(N, g)`` [rad], branch-major.
+        branch: ``(N,)``.
+    """
+
+    method: str
+    axes: tuple[Array, ...]
+    genes: Array
+    branch: NDArray[np.int_]
+
+
+def _grid_design(red: RedundancyMap, resolution: float) -> _Design:
+    """Every cell of the grid of step ``resolution`` [rad] (a map with at most 2 genes), every branch."""
+    g, branches = int(np.asarray(red.gene_lower).size), int(red.branches)
+    axes = _grid_axes(red, resolution)
+    mesh = np.meshgrid(*axes, indexing="ij") if g else []
+    one = np.stack([m.ravel() for m in mesh], axis=1) if g else np.zeros((1, 0))
+    return _Design("grid", axes, np.tile(one, (branches, 1)), np.repeat(np.arange(branches), one.shape[0]))
+
+
+def _sample_design(red: RedundancyMap, samples: int | None, rng: np.random.Generator | None) -> _Design:
+    """``samples`` Halton points within the gene bounds (default: see :func:`explore`), every branch."""
+    g, branches = int(np.asarray(red.gene_lower).size), int(red.branches)
+    count = samples if samples is not None else (65536 if isinstance(red, PlanarRedundancy) else 1024)
+    count = check_positive_int("samples", count)
+    one = red.gene_lower + halton(count, g, rng) * (red.gene_upper - red.gene_lower)
+    return _Design("samples", (), np.tile(one, (branches, 1)), np.repeat(np.arange(branches), count))
+
+
+def _score_design(
+    evaluator: Evaluator, red: RedundancyMap, design: _Design, target: object, t: float
+) -> tuple[Scored, Array, NDArray[np.int_]]:
+    """Score the design; with samples, the genes and branches of the reachable ones become those of
+    their solved configurations (the sampled genes moved onto the manifold; identity for a closed form)."""
+    genes, branch = design.genes, design.branch
+    if design.method == "grid" and isinstance(red, PlanarRedundancy):
+        return score_configurations(evaluator, *red.solve_grid(design.axes, target), t), genes, branch
+    scored = score(evaluator, red, genes, branch, target, t)
+    if design.method == "samples" and scored.reachable.any():
+        genes = genes.copy()
+        genes[scored.reachable], branch[scored.reachable] = red.genes_of(scored.Q[scored.reachable])
+    return scored, genes, branch
+
+
+def _candidate(red: RedundancyMap, scored: Scored, i: int) -> Candidate:
+    """Row ``i`` as a candidate, with the map's genes of the solved configuration (for the Newton map:
+    the projected genes)."""
+    solved, solved_branch = red.genes_of(scored.Q[i : i + 1])
+    return Candidate(solved[0], int(solved_branch[0]), scored.Q[i].copy(), float(scored.S[i]))
+
+
+def _grid_peaks(
+    robot: Robot, gene_wraps: NDArray[np.bool_], scored: Scored, S_map: Array, min_separation: float, top_k: int
+) -> list[int]:
+    """Rows of the grid's local maxima, best first, each ``min_separation`` [rad] from those kept."""
+    S = scored.S
+    maxima = np.flatnonzero(_grid_maxima(S_map, gene_wraps).ravel())
+    order = maxima[np.argsort(-S[maxima], kind="stable")]
+    picked = distinct(robot.angles_of(scored.Q[order]), robot.joints.full_turn, min_separation, top_k)
+    return [int(order[k]) for k in picked]
+
+
+def _sample_peaks(robot: Robot, scored: Scored, min_separation: float, top_k: int) -> list[int]:
+    """Rows of samples with ``S > 0`` and no better sample within ``min_separation`` [rad], best first
+    (among the best 5,000)."""
+    S, periodic = scored.S, robot.joints.full_turn
+    valid = np.flatnonzero(S > 0)
+    order = valid[np.argsort(-S[valid], kind="stable")][:5000]
+    angles = robot.angles_of(scored.Q[order])
+    kept: list[int] = []
+    for rank in range(order.size):
+        if len(kept) >= top_k:
+            break
+        if rank == 0 or joint_distance(angles[rank : rank + 1], angles[:rank], periodic).min() >= min_separation:
+            kept.append(int(order[rank]))
+    return kept

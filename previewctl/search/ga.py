@@ -32,9 +32,7 @@ from previewctl.search.genes import (
     distinct,
     gene_periodic,
     halton,
-    joint_periodic,
 )
-from previewctl.search.maps import joint_angles
 from previewctl.search.newton import NewtonRedundancy
 from previewctl.search.redundancy import RedundancyMap, wrap_angle
 from previewctl.search.scoring import Scored, score, score_configurations
@@ -136,7 +134,6 @@ class OneStepGA:
         self._lower = np.asarray(redundancy.gene_lower, dtype=float)
         self._upper = np.asarray(redundancy.gene_upper, dtype=float)
         self._gene_periodic = gene_periodic(redundancy)
-        self._joint_periodic = joint_periodic(robot)
         self._lamarck = not isinstance(redundancy, PlanarRedundancy)
         self.g = int(self._lower.size)
         self.generation = 0
@@ -294,8 +291,8 @@ class OneStepGA:
         self.generation += 1
         valid = np.flatnonzero(self._S > 0)
         order = valid[np.argsort(-self._S[valid], kind="stable")]
-        angles = joint_angles(self.robot, self._Q[order]) if order.size else np.zeros((0, self.robot.nv))
-        kept = [int(order[k]) for k in distinct(angles, self._joint_periodic, self.niche_radius, self.top_k)]
+        angles = self.robot.angles_of(self._Q[order]) if order.size else np.zeros((0, self.robot.nv))
+        kept = [int(order[k]) for k in distinct(angles, self.robot.joints.full_turn, self.niche_radius, self.top_k)]
         best, *peaks = candidates(
             genes, branch, self._Q, self._S, [int(np.argmax(self._S)), *kept], self._gene_periodic
         )

@@ -59,23 +59,9 @@ def halton(count: int, dim: int, rng: np.random.Generator | None = None) -> Arra
     return out
 
 
-def joint_periodic(robot: Robot) -> NDArray[np.bool_]:
-    """``(nv,)`` whether each joint coordinate is an angle that turns a full circle (compared mod 2 pi)."""
-    model = robot.model
-    periodic = np.zeros(robot.nv, dtype=bool)
-    for j in range(1, model.njoints):
-        joint = model.joints[j]
-        name = joint.shortname()
-        if joint.nq != joint.nv:
-            periodic[joint.idx_v : joint.idx_v + joint.nv] = True
-        elif name.startswith("JointModelR") and "Unbounded" not in name:
-            lo, hi = robot.lower_limits[joint.idx_q], robot.upper_limits[joint.idx_q]
-            periodic[joint.idx_v] = not (np.isfinite(lo) and np.isfinite(hi)) or hi - lo >= 2 * np.pi - 1e-9
-    return periodic
-
-
 def joint_distance(A: Array, B: Array, periodic: NDArray[np.bool_]) -> Array:
-    """Distances ``(a, b)`` [rad] between joint-angle vectors ``A (a, nv)`` and ``B (b, nv)``."""
+    """Distances ``(a, b)`` [rad] between joint-angle vectors ``A (a, nv)`` and ``B (b, nv)``
+    (``periodic``: the coordinates compared modulo ``2 pi``, e.g. ``robot.joints.full_turn``)."""
     diff = A[:, None, :] - B[None, :, :]
     diff = np.where(periodic, wrap_angle(diff), diff)
     return np.sqrt(np.add.reduce(diff * diff, axis=-1))

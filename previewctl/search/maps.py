@@ -1,16 +1,12 @@
-"""Choosing the redundancy map of a robot (closed form for planar arms, Newton otherwise) and reading joint angles."""
+"""Choosing the redundancy map of a robot: closed form for planar arms, Newton otherwise."""
 
 from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-import pinocchio as pin
-
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.newton import NewtonRedundancy
-from previewctl.types import Array
 
 
 def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRedundancy:
@@ -26,10 +22,3 @@ def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRed
         return PlanarRedundancy(robot, **options)
     return NewtonRedundancy(robot, **options)
 
-
-def joint_angles(robot: Robot, Q: Array) -> Array:
-    """Joint coordinates ``(B, nv)`` [rad] of configurations ``(B, nq)`` (continuous joints as angles)."""
-    if robot.nq == robot.nv:
-        return np.array(Q, dtype=float)
-    neutral = robot.neutral()
-    return np.stack([pin.difference(robot.model, neutral, q) for q in Q])

@@ -29,7 +29,8 @@ class NewtonRedundancy:
     Attributes:
         gene_lower, gene_upper: ``(nv,)`` bounds [rad]: the joint limits, ``[-pi, pi)`` for continuous
             joints (and for revolute joints without finite limits).
-        periodic: ``(nv,)`` true for the continuous/unbounded joints.
+        periodic: ``(nv,)`` true for the coordinates without two finite limits (``~robot.joints.bounded``):
+            wrapped, not clipped. A bounded joint spanning more than a turn keeps its limits here.
         branches: 1.
     """
 
@@ -63,33 +64,16 @@ class NewtonRedundancy:
         self.rows = robot.task_rows
         self.m = self.rows.stop - self.rows.start
         self.tip_id = robot.tip_frame_id
-        self.neutral = robot.neutral()
-        nv = robot.nv
-        lower, upper = np.full(nv, -np.pi), np.full(nv, np.pi)
-        periodic = np.ones(nv, dtype=bool)
-        clip_q: list[int] = []
-        clip_v: list[int] = []
-        for j in range(1, self.model.njoints):
-            joint = self.model.joints[j]
-            if joint.nq == joint.nv:
-                for k in range(joint.nv):
-                    lo, hi = robot.lower_limits[joint.idx_q + k], robot.upper_limits[joint.idx_q + k]
-                    if np.isfinite(lo) and np.isfinite(hi):
-                        lower[joint.idx_v + k], upper[joint.idx_v + k] = lo, hi
-                        periodic[joint.idx_v + k] = False
-                        clip_q.append(joint.idx_q + k)
-                        clip_v.append(joint.idx_v + k)
-        self.gene_lower, self.gene_upper, self.periodic = lower, upper, periodic
-        self._clip = np.array(clip_q, dtype=int)
-        self._clip_v = np.array(clip_v, dtype=int)
-        # every joint a 1-dof revolute/prismatic one: pin.integrate is plain addition, done for the batch
-        self._vector_space = all(
-            self.model.joints[j].nq == self.model.joints[j].nv == 1
-            and self.model.joints[j].shortname().startswith(("JointModelR", "JointModelP"))
-            for j in range(1, self.model.njoints)
-        )
-        self._q_lower = robot.lower_limits[self._clip]
-        self._q_upper = robot.upper_limits[self._clip]
+        facts = robot.joints
+        # genes: the bounded coordinates between their limits (clipped), every other one an angle (wrapped)
+        self.periodic = ~facts.bounded
+        self.gene_lower = np.where(facts.bounded, facts.lower, -np.pi)
+        self.gene_upper = np.where(facts.bounded, facts.upper, np.pi)
+        self._clip_v = np.flatnonzero(facts.bounded)
+        self._clip = facts.q_index[self._clip_v]
+        self._vector_space = facts.vector_space  # pin.integrate is plain addition, done for the batch
+        self._q_lower = facts.lower[self._clip_v]
+        self._q_upper = facts.upper[self._clip_v]
         self._lower_margin, self._upper_margin = self._q_lower + 1e-9, self._q_upper - 1e-9
         self._eye = np.eye(self.m)
 
@@ -97,17 +81,12 @@ class NewtonRedundancy:
 
     def configurations(self, genes: Array) -> Array:
         """Configurations ``(B, nq)`` of joint-angle vectors ``(B, nv)`` (no projection)."""
-        if self.robot.nq == self.robot.nv:
-            return np.array(genes, dtype=float)
-        return np.stack([pin.integrate(self.model, self.neutral, g) for g in genes])
+        return self.robot.configurations_from_angles(genes)
 
     def genes_of(self, Q: Array) -> tuple[Array, NDArray[np.int_]]:
         """Joint angles ``(B, nv)`` of configurations ``(B, nq)``; branch 0."""
         Qb, _ = self.robot.check_configurations(Q)
-        if self.robot.nq == self.robot.nv:
-            genes = Qb.copy()
-        else:
-            genes = np.stack([pin.difference(self.model, self.neutral, q) for q in Qb])
+        genes = self.robot.angles_of(Qb)
         genes = np.where(self.periodic, wrap_angle(genes), genes)
         return genes, np.zeros(Qb.shape[0], dtype=int)
 

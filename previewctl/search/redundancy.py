@@ -53,19 +53,18 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
+from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.types import Array
 from previewctl.validation import rotation_matrix, show
-
-TWO_PI = 2.0 * np.pi
 
 
 def wrap_angle(angle: NDArray[np.float64] | float) -> NDArray[np.float64]:
     """Wrap angles [rad] to ``[-pi, pi)`` (``floor`` instead of the much slower ``%`` on floats)."""
     x = np.asarray(angle, dtype=float)
-    out = np.asarray(x - TWO_PI * np.floor((x + np.pi) * (1.0 / TWO_PI)))
-    out[out >= np.pi] -= TWO_PI  # rounding at the borders
-    out[out < -np.pi] += TWO_PI
+    out = np.asarray(x - FULL_TURN * np.floor((x + np.pi) * (1.0 / FULL_TURN)))
+    out[out >= np.pi] -= FULL_TURN  # rounding at the borders
+    out[out < -np.pi] += FULL_TURN
     return out
 
 
@@ -184,7 +183,7 @@ def fit_limits(Q: Array, lower: Array, upper: Array) -> tuple[Array, NDArray[np.
     for j in range(Q.shape[1]):
         col = Q[:, j]
         inside = (col >= lower[j]) & (col <= upper[j])
-        up, down = col + TWO_PI, col - TWO_PI
+        up, down = col + FULL_TURN, col - FULL_TURN
         in_up = (up >= lower[j]) & (up <= upper[j])
         in_down = (down >= lower[j]) & (down <= upper[j])
         out[:, j] = np.where(inside, col, np.where(in_up, up, np.where(in_down, down, col)))

@@ -7,7 +7,7 @@ import math
 import os
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, get_type_hints
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,14 +19,13 @@ from previewctl.types import Array
 NPZ_NAME = "run.npz"
 SUMMARY_NAME = "summary.json"
 
-_ARRAYS = ("t", "q", "qdot", "qdot_requested", "hand", "desired", "hand_error", "S", "amsi", "link_distances",
-           "min_distance", "collision", "cycle_time", "frame_due", "velocity_scale", "velocity_limits",
-           "targets", "target_S")
-
 
 @dataclass(frozen=True, eq=False)
 class RunResult:
     """The log of one simulated run (``T`` logged steps).
+
+    The fields are the run-log schema: :func:`save_run` writes each one under its name into ``run.npz``
+    and :func:`load_run` reads them back by their declared types.
 
     Attributes:
         scenario: scenario name.
@@ -143,15 +142,7 @@ def save_run(result: RunResult, out_dir: str | os.PathLike[str]) -> tuple[Path, 
     """
     folder = Path(out_dir)
     npz_path, json_path = folder / NPZ_NAME, folder / SUMMARY_NAME
-    arrays: dict[str, Any] = {name: getattr(result, name) for name in _ARRAYS}
-    arrays.update(
-        joint_names=np.array(result.joint_names, dtype=str),
-        link_names=np.array(result.link_names, dtype=str),
-        scenario=np.array(result.scenario),
-        controller=np.array(result.controller),
-        robot=np.array(result.robot),
-        dt=np.array(result.dt),
-    )
+    arrays: dict[str, Any] = {f.name: _stored(getattr(result, f.name)) for f in fields(RunResult)}
     text = json.dumps(result.summary(), indent=2) + "\n"
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -177,19 +168,27 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
             stored = {name: npz[name] for name in npz.files}
     except (OSError, ValueError) as exc:
         raise PreviewctlError(f"cannot read {str(npz_path)!r}: {exc}") from exc
-    names = {f.name for f in fields(RunResult)}
-    missing = sorted(names - set(stored))
+    types = get_type_hints(RunResult)
+    missing = sorted(set(types) - set(stored))
     if missing:
         raise PreviewctlError(f"{str(npz_path)!r} lacks {', '.join(missing)}")
-    return RunResult(
-        scenario=str(stored["scenario"]),
-        controller=str(stored["controller"]),
-        robot=str(stored["robot"]),
-        dt=float(stored["dt"]),
-        joint_names=tuple(str(n) for n in stored["joint_names"]),
-        link_names=tuple(str(n) for n in stored["link_names"]),
-        **{name: stored[name] for name in _ARRAYS},
-    )
+    return RunResult(**{name: _restored(stored[name], kind) for name, kind in types.items()})
+
+
+def _stored(value: object) -> NDArray[Any]:
+    """A field as an npz member: names as a string array (also when empty), the rest as arrays."""
+    return np.array(value, dtype=str) if isinstance(value, tuple) else np.asarray(value)
+
+
+def _restored(stored: NDArray[Any], kind: object) -> Any:
+    """An npz member back as a field of declared type ``kind`` (``str``, ``float``, names or an array)."""
+    if kind is str:
+        return str(stored)
+    if kind is float:
+        return float(stored)
+    if kind == tuple[str, ...]:
+        return tuple(str(n) for n in stored)
+    return stored
 
 
 def load_summary(out_dir: str | os.PathLike[str]) -> dict[str, Any]:

@@ -1,5 +1,6 @@
-"""Shared by the figures of :mod:`previewctl.viz.figures` (runs) and :mod:`previewctl.viz.landscapes` (landscapes):
-matplotlib on the Agg backend, the arm's joint polyline and obstacle sections by the arm's plane.
+"""Shared by the figures of runs (:mod:`~previewctl.viz.figures`, :mod:`~previewctl.viz.animation`) and of
+landscapes (:mod:`~previewctl.viz.landscapes`): matplotlib on the Agg backend, the arm's joint polyline, and
+obstacles as they look in the arm's plane ``z = 0`` (sections, outlines, the view that holds them).
 """
 
 from __future__ import annotations
@@ -12,11 +13,14 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.robot.model import Robot
-from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Obstacle, Sphere
+from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 from previewctl.types import Array
 
 Bounds = tuple[float, float, float, float]
 """``(xmin, xmax, ymin, ymax)`` of a top view [m]."""
+
+OBSTACLE_COLOUR = "#7f7f7f"
+COLLISION_COLOUR = "#d62728"
 
 
 def pyplot() -> Any:
@@ -144,3 +148,67 @@ def obstacle_section(obstacle: Obstacle, t: float, bounds: Bounds) -> Array:
             return view if offset >= 0 else np.zeros((0, 2))
         return clip_halfplane(view, normal[:2], offset)
     return np.zeros((0, 2))
+
+
+def obstacle_outline(obstacle: Obstacle, t: float, bounds: Bounds) -> tuple[str, Array]:
+    """How an obstacle looks in the plane ``z = 0`` at time ``t`` [s].
+
+    Args:
+        obstacle: the obstacle.
+        t: time [s].
+        bounds: ``(xmin, xmax, ymin, ymax)`` of the view [m] (for half-spaces and planes).
+
+    Returns:
+        ``(kind, points)``: ``("polygon", (K, 2))`` a filled outline, ``("line", (2, 2))`` a line, or
+        ``("marker", (1, 2))`` a position marker (meshes).
+    """
+    section = obstacle_section(obstacle, t, bounds)
+    if len(section):
+        return "polygon", section
+    pose = obstacle.placement(t)
+    p, R, shape = np.array(pose.translation), np.array(pose.rotation), obstacle.shape
+    if isinstance(shape, Plane):
+        normal = R @ np.array(shape.normal)
+        offset = shape.offset + float(normal @ p)
+        n2 = normal[:2]
+        if np.linalg.norm(n2) < 1e-9:
+            return "line", np.zeros((0, 2))
+        xmin, xmax, ymin, ymax = bounds
+        view = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
+        inside = clip_halfplane(view, n2, offset)
+        on_line = inside[np.abs(inside @ n2 - offset) < 1e-9 * max(1.0, abs(offset))]
+        return "line", on_line[:2] if len(on_line) >= 2 else np.zeros((0, 2))
+    if isinstance(shape, Mesh):
+        return "marker", p[None, :2]
+    return "polygon", np.zeros((0, 2))  # does not meet the plane z = 0
+
+
+def draw_obstacle(
+    ax: Any, obstacle: Obstacle, t: float, bounds: Bounds, alpha: float, label: str | None = None
+) -> None:
+    """Draw :func:`obstacle_outline` on the matplotlib axes ``ax`` with opacity ``alpha``."""
+    from matplotlib.patches import Polygon
+
+    kind, pts = obstacle_outline(obstacle, t, bounds)
+    if len(pts) == 0:
+        return
+    if kind == "polygon" and len(pts) >= 3:
+        ax.add_patch(Polygon(pts, closed=True, facecolor=OBSTACLE_COLOUR, edgecolor="#404040", alpha=alpha,
+                             linewidth=0.8, label=label))
+    elif kind == "line":
+        ax.plot(pts[:, 0], pts[:, 1], color="#404040", alpha=alpha, label=label)
+    else:
+        ax.plot(pts[:, 0], pts[:, 1], "x", color="#404040", alpha=alpha, label=label)
+
+
+def view_bounds(points: Array, path: Array, scene: Scene, pad: float = 0.25) -> Bounds:
+    """A top view [m] holding the arm ``points (..., 3)``, the ``path (K, >=2)`` and the centres of the solid
+    obstacles at ``t = 0``, with a margin ``pad`` [m]."""
+    xy = [points.reshape(-1, 3)[:, :2], path[:, :2]]
+    for obstacle in scene.obstacles:
+        if isinstance(obstacle.shape, (Sphere, Box, Cylinder, Capsule)):
+            xy.append(obstacle.placement(0.0).translation[None, :2])
+    allxy = np.concatenate(xy)
+    xmin, ymin = allxy.min(axis=0) - pad
+    xmax, ymax = allxy.max(axis=0) + pad
+    return float(xmin), float(xmax), float(ymin), float(ymax)

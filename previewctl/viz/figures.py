@@ -1,6 +1,6 @@
-"""Figures of a run: strobe plots of the arm (like the paper's Figs. 12-13), S(t), clearance, a GIF.
+"""Figures of a run: strobe plots of the arm (like the paper's Figs. 12-13), S(t), clearance, errors.
 
-Matplotlib (Agg backend) and Pillow are imported inside the functions, so importing this module is
+Matplotlib (Agg backend) is imported inside the functions, so importing this module is
 cheap and never opens a window. Every function writes one file and returns its path.
 
 * :func:`strobe_plot` -- planar arms: the arm drawn at evenly spaced times with a colour that darkens
@@ -9,12 +9,13 @@ cheap and never opens a window. Every function writes one file and returns its p
 * :func:`s_plot` -- AMSIP ``S(t)`` and AMSI ``E(t)``.
 * :func:`clearance_plot` -- minimum distance per guarded link against time.
 * :func:`error_plot` -- hand error and joint-speed use (``max_j |q̇_j| / q̇max_j``) against time.
-* :func:`animate_gif` -- planar arms: an animated GIF (~10 fps, at most 150 frames).
+
+:func:`make_figures` writes the ones a scenario asks for, with the GIF of
+:func:`previewctl.viz.animation.animate_gif` for planar arms.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,18 +24,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.files import atomic_write, save_figure
+from previewctl.files import save_figure
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
-from previewctl.scene.shapes import Box, Capsule, Cylinder, Mesh, Obstacle, Plane, Sphere
+from previewctl.scene.shapes import Box, Obstacle, Sphere
 from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario
 from previewctl.types import Array
-from previewctl.viz.drawing import arm_points, clip_halfplane, obstacle_section, pyplot
+from previewctl.viz.animation import animate_gif
+from previewctl.viz.drawing import COLLISION_COLOUR, OBSTACLE_COLOUR, arm_points, draw_obstacle, pyplot, view_bounds
 
 _ARM_COLOUR_MAP = "viridis"
-_COLLISION_COLOUR = "#d62728"
-_OBSTACLE_COLOUR = "#7f7f7f"
+_COLLISION_COLOUR = COLLISION_COLOUR
+_OBSTACLE_COLOUR = OBSTACLE_COLOUR
 
 
 def strobe_indices(steps: int, poses: int, extra: int | None = None) -> NDArray[np.int_]:
@@ -56,71 +58,6 @@ def _carrying_joint(robot: Robot, link: str) -> int | None:
 
 def _is_planar_run(scenario: Scenario) -> bool:
     return scenario.robot.task == "planar"
-
-
-# ------------------------------------------------------------------------- planar obstacle shapes
-
-
-def obstacle_outline(obstacle: Obstacle, t: float, bounds: tuple[float, float, float, float]) -> tuple[str, Array]:
-    """How an obstacle looks in the plane ``z = 0`` at time ``t`` [s].
-
-    Args:
-        obstacle: the obstacle.
-        t: time [s].
-        bounds: ``(xmin, xmax, ymin, ymax)`` of the view [m] (for half-spaces and planes).
-
-    Returns:
-        ``(kind, points)``: ``("polygon", (K, 2))`` a filled outline, ``("line", (2, 2))`` a line, or
-        ``("marker", (1, 2))`` a position marker (meshes).
-    """
-    section = obstacle_section(obstacle, t, bounds)
-    if len(section):
-        return "polygon", section
-    pose = obstacle.placement(t)
-    p, R, shape = np.array(pose.translation), np.array(pose.rotation), obstacle.shape
-    if isinstance(shape, Plane):
-        normal = R @ np.array(shape.normal)
-        offset = shape.offset + float(normal @ p)
-        n2 = normal[:2]
-        if np.linalg.norm(n2) < 1e-9:
-            return "line", np.zeros((0, 2))
-        xmin, xmax, ymin, ymax = bounds
-        view = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
-        inside = clip_halfplane(view, n2, offset)
-        on_line = inside[np.abs(inside @ n2 - offset) < 1e-9 * max(1.0, abs(offset))]
-        return "line", on_line[:2] if len(on_line) >= 2 else np.zeros((0, 2))
-    if isinstance(shape, Mesh):
-        return "marker", p[None, :2]
-    return "polygon", np.zeros((0, 2))  # does not meet the plane z = 0
-
-
-def _draw_obstacle(ax: Any, obstacle: Obstacle, t: float, bounds: tuple[float, float, float, float],
-                   alpha: float, label: str | None = None) -> None:
-    from matplotlib.patches import Polygon
-
-    kind, pts = obstacle_outline(obstacle, t, bounds)
-    if len(pts) == 0:
-        return
-    if kind == "polygon" and len(pts) >= 3:
-        ax.add_patch(Polygon(pts, closed=True, facecolor=_OBSTACLE_COLOUR, edgecolor="#404040", alpha=alpha,
-                             linewidth=0.8, label=label))
-    elif kind == "line":
-        ax.plot(pts[:, 0], pts[:, 1], color="#404040", alpha=alpha, label=label)
-    else:
-        ax.plot(pts[:, 0], pts[:, 1], "x", color="#404040", alpha=alpha, label=label)
-
-
-def _view_bounds(
-    points: Array, path: Array, scenario: Scenario, pad: float = 0.25
-) -> tuple[float, float, float, float]:
-    xy = [points.reshape(-1, 3)[:, :2], path[:, :2]]
-    for obstacle in scenario.scene.obstacles:
-        if isinstance(obstacle.shape, (Sphere, Box, Cylinder, Capsule)):
-            xy.append(obstacle.placement(0.0).translation[None, :2])
-    allxy = np.concatenate(xy)
-    xmin, ymin = allxy.min(axis=0) - pad
-    xmax, ymax = allxy.max(axis=0) + pad
-    return float(xmin), float(xmax), float(ymin), float(ymax)
 
 
 def _collision_text(result: RunResult) -> str:
@@ -154,32 +91,21 @@ def strobe_plot(
     idx = strobe_indices(result.steps, poses or scenario.outputs.strobe_poses, hit)
     points = arm_points(scenario.robot, result.q[idx])
     desired = scenario.path.position(np.linspace(scenario.path.start_time, scenario.path.end_time, 200))
-    bounds = _view_bounds(points, desired, scenario)
+    bounds = view_bounds(points, desired, scenario.scene)
     cmap = plt.get_cmap(_ARM_COLOUR_MAP)
     fig, ax = plt.subplots(figsize=(7, 7))
     try:
         for obstacle in scenario.scene.obstacles:
             if isinstance(obstacle.motion, Static):
-                _draw_obstacle(ax, obstacle, 0.0, bounds, 0.55)
+                draw_obstacle(ax, obstacle, 0.0, bounds, 0.55)
             else:
                 for n, k in enumerate(idx):
-                    _draw_obstacle(ax, obstacle, float(result.t[k]), bounds, 0.08 + 0.22 * n / max(1, len(idx) - 1))
+                    draw_obstacle(ax, obstacle, float(result.t[k]), bounds, 0.08 + 0.22 * n / max(1, len(idx) - 1))
         ax.plot(desired[:, 0], desired[:, 1], "--", color="black", linewidth=1.0, label="desired path")
         ax.plot(result.hand[:, 0], result.hand[:, 1], color="#ff7f0e", linewidth=1.0, label="hand")
-        span = max(float(result.t[-1] - result.t[0]), 1e-12)
-        for n, k in enumerate(idx):
-            frac = float(result.t[k] - result.t[0]) / span
-            colour = _COLLISION_COLOUR if k == hit else cmap(frac)
-            alpha = 1.0 if k == hit else 0.3 + 0.7 * frac
-            ax.plot(points[n, :, 0], points[n, :, 1], "-o", color=colour, alpha=alpha, markersize=3, linewidth=2)
+        _draw_poses(ax, result, idx, points[:, :, :2], cmap, "-o", markersize=3, linewidth=2)
         if hit is not None:
-            n = int(np.flatnonzero(idx == hit)[0])
-            name = result.link_names[int(np.argmin(result.link_distances[hit]))]
-            j = _carrying_joint(scenario.robot, name)
-            if j is not None:  # the colliding link's segment, from its joint to the next joint (or the hand)
-                seg = points[n, j - 1 : j + 1, :2]
-                ax.plot(seg[:, 0], seg[:, 1], color=_COLLISION_COLOUR, linewidth=6, alpha=0.6,
-                        solid_capstyle="round", label=f"collision ({name})")
+            _mark_colliding_link(ax, result, scenario.robot, points[int(np.flatnonzero(idx == hit)[0])])
         ax.plot(0, 0, "ks", markersize=8)
         ax.set_xlim(bounds[0], bounds[1])
         ax.set_ylim(bounds[2], bounds[3])
@@ -195,44 +121,49 @@ def strobe_plot(
         plt.close(fig)
 
 
-def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], poses: int) -> Path:
-    plt = pyplot()
+def _draw_poses(ax: Any, result: RunResult, idx: NDArray[np.int_], points: Array, cmap: Any, style: str,
+                **line: float) -> None:
+    """The arm at the steps ``idx`` (``points (len(idx), njoints, 2 or 3)``), darkening with time; the
+    colliding pose in red and opaque."""
     hit = result.collision_index
-    idx = strobe_indices(result.steps, poses, hit)
+    span = max(float(result.t[-1] - result.t[0]), 1e-12)
+    for n, k in enumerate(idx):
+        frac = float(result.t[k] - result.t[0]) / span
+        colour = _COLLISION_COLOUR if k == hit else cmap(frac)
+        alpha = 1.0 if k == hit else 0.3 + 0.7 * frac
+        ax.plot(*points[n].T, style, color=colour, alpha=alpha, **line)
+
+
+def _mark_colliding_link(ax: Any, result: RunResult, robot: Robot, pose: Array) -> None:
+    """Thicken the colliding link's segment of ``pose (njoints, 2)``, from its joint to the next joint (or
+    the hand)."""
+    hit = result.collision_index
+    if hit is None:
+        return
+    name = result.link_names[int(np.argmin(result.link_distances[hit]))]
+    j = _carrying_joint(robot, name)
+    if j is not None:
+        seg = pose[j - 1 : j + 1, :2]
+        ax.plot(seg[:, 0], seg[:, 1], color=_COLLISION_COLOUR, linewidth=6, alpha=0.6,
+                solid_capstyle="round", label=f"collision ({name})")
+
+
+def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], poses: int) -> Path:
+    """:func:`strobe_plot` of a spatial arm: the joint-origin polyline in 3-D, obstacles as wireframes."""
+    plt = pyplot()
+    idx = strobe_indices(result.steps, poses, result.collision_index)
     points = arm_points(scenario.robot, result.q[idx])
     desired = scenario.path.position(np.linspace(scenario.path.start_time, scenario.path.end_time, 100))
-    cmap = plt.get_cmap(_ARM_COLOUR_MAP)
     fig = plt.figure(figsize=(8, 7))
     try:
         ax = fig.add_subplot(projection="3d")
-        u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
         for obstacle in scenario.scene.obstacles:
             times = [0.0] if isinstance(obstacle.motion, Static) else [float(result.t[k]) for k in idx]
             for n, t in enumerate(times):
                 alpha = 0.5 if len(times) == 1 else 0.08 + 0.3 * n / max(1, len(times) - 1)
-                p = obstacle.placement(t).translation
-                shape = obstacle.shape
-                if isinstance(shape, Sphere):
-                    r = shape.radius
-                    ax.plot_wireframe(p[0] + r * np.cos(u) * np.sin(v), p[1] + r * np.sin(u) * np.sin(v),
-                                      p[2] + r * np.cos(v), color=_OBSTACLE_COLOUR, alpha=alpha, linewidth=0.6)
-                elif isinstance(shape, Box):
-                    R = obstacle.placement(t).rotation
-                    half = np.array(shape.size) / 2
-                    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-                    corners = p + (signs * half) @ R.T
-                    for a in range(8):
-                        for b in range(a + 1, 8):
-                            if np.count_nonzero(signs[a] != signs[b]) == 1:
-                                ax.plot(*corners[[a, b]].T, color=_OBSTACLE_COLOUR, alpha=alpha, linewidth=0.8)
-                else:
-                    ax.scatter(*p, color=_OBSTACLE_COLOUR, alpha=alpha, s=40)
+                _draw_obstacle_3d(ax, obstacle, t, alpha)
         ax.plot(*desired.T, "--", color="black", linewidth=1.0, label="desired path")
-        span = max(float(result.t[-1] - result.t[0]), 1e-12)
-        for n, k in enumerate(idx):
-            frac = float(result.t[k] - result.t[0]) / span
-            colour = _COLLISION_COLOUR if k == hit else cmap(frac)
-            ax.plot(*points[n].T, "-o", color=colour, alpha=1.0 if k == hit else 0.3 + 0.7 * frac, markersize=2.5)
+        _draw_poses(ax, result, idx, points, plt.get_cmap(_ARM_COLOUR_MAP), "-o", markersize=2.5)
         allp = np.concatenate([points.reshape(-1, 3), desired])
         centre, half = (allp.max(0) + allp.min(0)) / 2, (allp.max(0) - allp.min(0)).max() / 2 + 0.1
         ax.set_xlim(centre[0] - half, centre[0] + half)
@@ -246,6 +177,28 @@ def _strobe_3d(result: RunResult, scenario: Scenario, path: str | os.PathLike[st
         return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
+
+
+def _draw_obstacle_3d(ax: Any, obstacle: Obstacle, t: float, alpha: float) -> None:
+    """An obstacle at time ``t`` [s] on 3-D axes: a sphere's wireframe, a box's edges, else its centre."""
+    p = obstacle.placement(t).translation
+    shape = obstacle.shape
+    if isinstance(shape, Sphere):
+        u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+        r = shape.radius
+        ax.plot_wireframe(p[0] + r * np.cos(u) * np.sin(v), p[1] + r * np.sin(u) * np.sin(v),
+                          p[2] + r * np.cos(v), color=_OBSTACLE_COLOUR, alpha=alpha, linewidth=0.6)
+    elif isinstance(shape, Box):
+        R = obstacle.placement(t).rotation
+        half = np.array(shape.size) / 2
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        corners = p + (signs * half) @ R.T
+        for a in range(8):
+            for b in range(a + 1, 8):
+                if np.count_nonzero(signs[a] != signs[b]) == 1:
+                    ax.plot(*corners[[a, b]].T, color=_OBSTACLE_COLOUR, alpha=alpha, linewidth=0.8)
+    else:
+        ax.scatter(*p, color=_OBSTACLE_COLOUR, alpha=alpha, s=40)
 
 
 def _mark_collision(ax: Any, result: RunResult) -> None:
@@ -323,73 +276,6 @@ def error_plot(result: RunResult, path: str | os.PathLike[str]) -> Path:
         return save_figure(fig, path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-
-
-def animate_gif(result: RunResult, scenario: Scenario, path: str | os.PathLike[str], *, fps: float = 10.0,
-                max_frames: int = 150) -> Path:
-    """Animated GIF of a planar run (Pillow): ~``fps`` frames per simulated second, at most ``max_frames``.
-
-    Raises:
-        ValueError: a spatial (non-planar) run.
-    """
-    if not _is_planar_run(scenario):
-        raise ValueError(f"animate_gif draws planar arms only; robot {scenario.robot.name!r} has task "
-                         f"{scenario.robot.task!r}")
-    from matplotlib.patches import Polygon
-    from PIL import Image
-
-    plt = pyplot()
-    span = float(result.t[-1] - result.t[0])
-    count = int(min(max_frames, max(2, math.ceil(span * fps) + 1), result.steps))
-    idx = np.unique(np.linspace(0, result.steps - 1, count).round().astype(int))
-    points = arm_points(scenario.robot, result.q[idx])
-    desired = scenario.path.position(np.linspace(scenario.path.start_time, scenario.path.end_time, 200))
-    bounds = _view_bounds(points, desired, scenario)
-    moving = [o for o in scenario.scene.obstacles if not isinstance(o.motion, Static)]
-    fig, ax = plt.subplots(figsize=(5, 5), dpi=80)
-    frames: list[Any] = []
-    try:
-        for obstacle in scenario.scene.obstacles:
-            if isinstance(obstacle.motion, Static):
-                _draw_obstacle(ax, obstacle, 0.0, bounds, 0.55)
-        ax.plot(desired[:, 0], desired[:, 1], "--", color="black", linewidth=1.0)
-        ax.plot(0, 0, "ks", markersize=7)
-        ax.set_xlim(bounds[0], bounds[1])
-        ax.set_ylim(bounds[2], bounds[3])
-        ax.set_aspect("equal")
-        ax.set_title(f"{result.scenario} -- {result.controller}", fontsize=10)
-        # blitting: the axes, ticks and static obstacles are drawn once; each frame restores them and
-        # draws only the moving artists
-        (arm,) = ax.plot([], [], "-o", color="#1f77b4", linewidth=2.5, markersize=4, animated=True)
-        (trace,) = ax.plot([], [], color="#ff7f0e", linewidth=1.0, animated=True)
-        label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9, animated=True)
-        fig.canvas.draw()
-        background = fig.canvas.copy_from_bbox(fig.bbox)
-        hit = result.collision_index
-        for n, k in enumerate(idx):
-            fig.canvas.restore_region(background)
-            for obstacle in moving:
-                kind, pts = obstacle_outline(obstacle, float(result.t[k]), bounds)
-                if kind == "polygon" and len(pts) >= 3:
-                    patch = ax.add_patch(Polygon(pts, closed=True, facecolor=_OBSTACLE_COLOUR, alpha=0.6,
-                                                 animated=True))
-                    ax.draw_artist(patch)
-                    patch.remove()
-            colliding = hit is not None and k >= hit
-            arm.set_data(points[n, :, 0], points[n, :, 1])
-            arm.set_color(_COLLISION_COLOUR if colliding else "#1f77b4")
-            trace.set_data(result.hand[: k + 1, 0], result.hand[: k + 1, 1])
-            label.set_text(f"t = {result.t[k]:.2f} s   S = {result.S[k]:.0f}" + ("   COLLISION" if colliding else ""))
-            for artist in (trace, arm, label):
-                ax.draw_artist(artist)
-            rgb = np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()
-            frames.append(Image.fromarray(rgb).quantize(colors=64, method=Image.Quantize.FASTOCTREE))
-    finally:
-        plt.close(fig)
-    out = Path(path)
-    atomic_write(out, lambda handle: frames[0].save(handle, format="GIF", save_all=True, append_images=frames[1:],
-                                                    duration=round(1000 / fps), loop=0, optimize=False))
-    return out
 
 
 def make_figures(result: RunResult, scenario: Scenario, out_dir: str | os.PathLike[str], *,

@@ -138,7 +138,6 @@ def plot_landscape(
     from matplotlib.colors import Normalize
 
     scene = scene or Scene()
-    cmap = _colormap()
     valid = landscape.S[landscape.S >= 0]
     vmax = float(valid.max()) if valid.size else 1.0
     norm = Normalize(vmin=1e-9 * max(vmax, 1.0), vmax=max(vmax, 1e-9))
@@ -146,35 +145,7 @@ def plot_landscape(
     panels = landscape.S_map.shape[0] if grid and landscape.S_map is not None else 1
     fig = plt.figure(figsize=(5.0 * (panels + 1) + 1.0, 4.8), layout="constrained")
     try:
-        image = None
-        if grid and landscape.S_map is not None:
-            ax0, ax1 = (np.degrees(a) for a in landscape.axes)
-            step0 = ax0[1] - ax0[0] if len(ax0) > 1 else 1.0
-            step1 = ax1[1] - ax1[0] if len(ax1) > 1 else 1.0
-            extent = (ax0[0] - step0 / 2, ax0[-1] + step0 / 2, ax1[0] - step1 / 2, ax1[-1] + step1 / 2)
-            for b in range(panels):
-                ax = fig.add_subplot(1, panels + 1, b + 1)
-                image = ax.imshow(landscape.S_map[b].T, origin="lower", extent=extent, cmap=cmap, norm=norm,
-                                  aspect="auto", interpolation="nearest")
-                _mark(ax, landscape, b)
-                ax.set_xlabel("q1 [deg]")
-                ax.set_ylabel("q2 [deg]")
-                label = ("elbow q_n >= 0", "elbow q_n < 0")[b] if panels == 2 else f"branch {b}"
-                ax.set_title(f"S over (q1, q2), {label}", fontsize=10)
-                if ax.get_legend_handles_labels()[0]:
-                    ax.legend(loc="upper right", fontsize=7, facecolor="#dddddd")
-        else:
-            ax = fig.add_subplot(1, 2, 1)
-            genes = _degrees(landscape.genes, grid=False)
-            x = genes[:, 0] if genes.shape[1] else np.zeros(len(genes))
-            y = genes[:, 1] if genes.shape[1] > 1 else np.zeros(len(genes))
-            order = np.argsort(landscape.S)
-            image = ax.scatter(x[order], y[order], c=landscape.S[order], cmap=cmap, norm=norm, s=6)
-            _mark(ax, landscape, None)
-            ax.set_facecolor("#202020")
-            ax.set_xlabel("gene 1 [deg]")
-            ax.set_ylabel("gene 2 [deg]")
-            ax.set_title(f"S of {len(landscape.S)} samples (black: S < 0)", fontsize=10)
+        image = _grid_panels(fig, landscape, norm, panels) if grid else _samples_panel(fig, landscape, norm)
         if image is not None:
             fig.colorbar(image, ax=fig.axes[:panels], shrink=0.85, label="AMSIP S (black: S < 0)", extend="min")
         q_best = landscape.best.q
@@ -189,6 +160,46 @@ def plot_landscape(
         return save_figure(fig, path, dpi=110)
     finally:
         plt.close(fig)
+
+
+def _grid_panels(fig: Any, landscape: Landscape, norm: Any, panels: int) -> Any:
+    """One heat map of S over (q1, q2) [deg] per branch, best and peaks marked; the last image drawn."""
+    if landscape.S_map is None:
+        return None
+    cmap = _colormap()
+    ax0, ax1 = (np.degrees(a) for a in landscape.axes)
+    step0 = ax0[1] - ax0[0] if len(ax0) > 1 else 1.0
+    step1 = ax1[1] - ax1[0] if len(ax1) > 1 else 1.0
+    extent = (ax0[0] - step0 / 2, ax0[-1] + step0 / 2, ax1[0] - step1 / 2, ax1[-1] + step1 / 2)
+    image = None
+    for b in range(panels):
+        ax = fig.add_subplot(1, panels + 1, b + 1)
+        image = ax.imshow(landscape.S_map[b].T, origin="lower", extent=extent, cmap=cmap, norm=norm,
+                          aspect="auto", interpolation="nearest")
+        _mark(ax, landscape, b)
+        ax.set_xlabel("q1 [deg]")
+        ax.set_ylabel("q2 [deg]")
+        label = ("elbow q_n >= 0", "elbow q_n < 0")[b] if panels == 2 else f"branch {b}"
+        ax.set_title(f"S over (q1, q2), {label}", fontsize=10)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper right", fontsize=7, facecolor="#dddddd")
+    return image
+
+
+def _samples_panel(fig: Any, landscape: Landscape, norm: Any) -> Any:
+    """A scatter of the samples' S over their first two genes [deg], best and peaks marked; the image."""
+    ax = fig.add_subplot(1, 2, 1)
+    genes = _degrees(landscape.genes, grid=False)
+    x = genes[:, 0] if genes.shape[1] else np.zeros(len(genes))
+    y = genes[:, 1] if genes.shape[1] > 1 else np.zeros(len(genes))
+    order = np.argsort(landscape.S)
+    image = ax.scatter(x[order], y[order], c=landscape.S[order], cmap=_colormap(), norm=norm, s=6)
+    _mark(ax, landscape, None)
+    ax.set_facecolor("#202020")
+    ax.set_xlabel("gene 1 [deg]")
+    ax.set_ylabel("gene 2 [deg]")
+    ax.set_title(f"S of {len(landscape.S)} samples (black: S < 0)", fontsize=10)
+    return image
 
 
 def plot_surface(landscape: Landscape, path: str | Path = "map_surface.png", *, title: str | None = None) -> Path:
