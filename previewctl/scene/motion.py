@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import SceneError
@@ -335,7 +336,7 @@ class Periodic(_Placed):
 
 
 def rpy_to_matrix(rpy: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix from roll, pitch, yaw: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+    """Rotation matrix from roll, pitch, yaw: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (``pin.rpy.rpyToMatrix``).
 
     Args:
         rpy: ``[roll, pitch, yaw]`` [rad].
@@ -350,11 +351,7 @@ def rpy_to_matrix(rpy: ArrayLike) -> NDArray[np.float64]:
     if angles.shape != (3,):
         raise SceneError(f"rpy must be [roll, pitch, yaw] (3 numbers) [rad], got shape {angles.shape}: {show(angles)}")
     _check_finite(angles, "rpy")
-    (cr, cp, cy), (sr, sp, sy) = np.cos(angles), np.sin(angles)
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    matrix: NDArray[np.float64] = rz @ ry @ rx
+    matrix: NDArray[np.float64] = pin.rpy.rpyToMatrix(angles)
     return matrix
 
 
