@@ -430,7 +430,9 @@ def test_load_valid_scene(tmp_path: Path, planar4: Robot) -> None:
     ("body", "match"),
     [
         ('[[obstacles]]\nname = "c"\nshape = "cone"\nradius = 0.1\n', r"'cone'.*sphere"),
-        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n', r"'colour'"),
+        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n',
+         r"unknown key 'obstacles\[0\]\.colour'; valid keys in obstacles\[0\] \(shape = 'sphere'\): "
+         r"name, shape, radius, position"),
         ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = -0.1\n', r"radius.*-0\.1"),
         ('[[obstacles]]\nname = "c"\nshape = "box"\nsize = [0.1, 0.0, 0.1]\n', r"size.*0\.0"),
         ('[[obstacles]]\nname = "c"\nshape = "mesh"\npath = "nope.stl"\n', r"nope\.stl"),
@@ -494,7 +496,8 @@ position = [-1.0, 0.6, 0.0]
     boxes = previewctl.Scene(
         (
             previewctl.Obstacle(
-                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
+                "b", previewctl.Box((0.2, 0.4, 0.6)),
+                previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3)),
             ),
             previewctl.Obstacle(
                 "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.scene.motion.Static(np.array([-1.0, 0.6, 0.0]))
