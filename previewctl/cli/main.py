@@ -12,6 +12,7 @@ from previewctl.cli.map import cmd_map
 from previewctl.cli.paper import cmd_paper
 from previewctl.cli.robots import cmd_robots
 from previewctl.cli.run import cmd_run
+from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.errors import PreviewctlError
 
 
@@ -51,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(run.npz, summary.json) and the figures go to --out.",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
-    run.add_argument("--controller", choices=("none", "gradient", "single", "multi", "reach"),
+    run.add_argument("--controller", choices=CONTROLLER_NAMES,
                      help="override the scenario's controller")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
