@@ -107,6 +107,13 @@ def test_messages_name_the_key_the_value_and_the_choices(data: dict[str, Any], e
     assert expected in message(data)
 
 
+def test_a_misspelt_key_is_not_also_reported_missing() -> None:
+    assert message({"gear": {}, "parts": [{"kind": "crank", "lenght": 2}]}) == (
+        "machine.toml: unknown key 'parts[0].lenght' (did you mean 'parts[0].length'?); valid keys in parts[0] "
+        "(kind = 'crank'): kind, length"
+    )
+
+
 def test_a_valid_document_gives_the_values_converted() -> None:
     machine = validate(Machine, {"gear": {"ratio": 1, "axis": [0, 1]}, "parts": [{"kind": "crank", "length": 2}]},
                        ParameterError)

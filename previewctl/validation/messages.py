@@ -137,6 +137,13 @@ def _choices(names: Any, given: object) -> str:
     return f"valid: {', '.join(names)}" + (f" (did you mean {close[0]!r}?)" if close else "")
 
 
+def _meant(spot: _Spot, loc: tuple[int | str, ...]) -> str | None:
+    """The dotted key an unknown key at ``spot`` was probably meant to be (difflib's nearest valid key)."""
+    valid = list(spot.holder.model_fields) if spot.holder else []
+    close = difflib.get_close_matches(str(loc[-1]), valid, n=1)
+    return (f"{spot.holder_key}." if spot.holder_key else "") + close[0] if close else None
+
+
 def _message(error: Any, root: Any, where: str, root_name: str) -> str:
     """One pydantic error as a sentence about the dotted key."""
     kind, loc, value, ctx = error["type"], tuple(error["loc"]), error["input"], error.get("ctx") or {}
@@ -154,8 +161,8 @@ def _message(error: Any, root: Any, where: str, root_name: str) -> str:
     place += spot.variant
     if kind == "extra_forbidden":
         valid = list(spot.holder.model_fields) if spot.holder else []
-        close = difflib.get_close_matches(str(loc[-1]), valid, n=1)
-        hint = f" (did you mean {(f'{holder}.' if holder else '') + close[0]!r}?)" if close else ""
+        close = _meant(spot, loc)
+        hint = f" (did you mean {close!r}?)" if close else ""
         return f"unknown key {spot.key!r}{hint}; valid keys {place}: {', '.join(valid)}"
     if kind == "missing":
         about = f" ({spot.field.description})" if spot.field and spot.field.description else ""
@@ -187,8 +194,8 @@ def _message(error: Any, root: Any, where: str, root_name: str) -> str:
 
 
 def explain(exc: ValidationError, root: Any, where: str = "", root_name: str = "the value") -> str:
-    """The first problem of ``exc`` in words (and how many more there are). An unknown key comes first:
-    a misspelt key also makes the key it should have been missing.
+    """The first problem of ``exc`` in words (and how many more there are). An unknown key comes first,
+    and the key it was probably meant to be is not also reported missing.
 
     Args:
         exc: the error pydantic raised when validating against ``root``.
@@ -197,6 +204,9 @@ def explain(exc: ValidationError, root: Any, where: str = "", root_name: str = "
         root_name: what to call the validated value itself when ``where`` is empty.
     """
     errors = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
+    meant = {_meant(_locate(root, tuple(e["loc"]), where), tuple(e["loc"]))
+             for e in errors if e["type"] == "extra_forbidden"}
+    errors = [e for e in errors if e["type"] != "missing" or _locate(root, tuple(e["loc"]), where).key not in meant]
     messages = list(dict.fromkeys(_message(e, root, where, root_name) for e in errors))
     more = len(messages) - 1
     return messages[0] + (f" (and {more} more problem{'s' if more > 1 else ''})" if more else "")
