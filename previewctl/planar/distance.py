@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from previewctl.errors import ConfigurationError, SceneError
+from previewctl.validation import rotation_matrix
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -71,10 +72,7 @@ def _length(value: float, name: str) -> float:
 
 
 def _rotation(value: npt.ArrayLike) -> FloatArray:
-    rot = np.asarray(value, dtype=np.float64)
-    if rot.shape != (3, 3) or not np.all(np.isfinite(rot)) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6):
-        raise SceneError(f"rotation must be a 3x3 orthonormal matrix; got {value!r}")
-    return rot
+    return rotation_matrix(value, "rotation", SceneError)
 
 
 def _z_axis_vertical(rotation: FloatArray, atol: float) -> bool:
