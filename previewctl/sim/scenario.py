@@ -61,6 +61,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 from previewctl.control.params import ControllerParams, ControllerSpec
+from previewctl.control.tracking import gain_vector
 from previewctl.errors import PreviewctlError, ScenarioError
 from previewctl.index.amsi import IndexParams
 from previewctl.index.potential import Potential
@@ -292,10 +293,7 @@ def _initial_configuration(table: Any, robot: Robot, path: HandPath) -> Array:
 def _controller(table: Any, robot: Robot) -> ControllerSpec:
     """The controller of ``[controller]``: the gains have one entry or one per joint velocity."""
     for key in ("gain", "gradient_gain"):
-        gains = getattr(table, key)
-        if len(gains) not in (1, robot.nv):
-            raise ScenarioError(f"controller.{key} has {len(gains)} entries; give one number or {robot.nv} "
-                                f"(one per joint velocity)")
+        gain_vector(getattr(table, key), robot.nv, f"controller.{key}")
     values = table.model_dump(exclude={"name", "ga"})
     ga_options = tuple(table.ga.model_dump(exclude_unset=True).items())
     with _section("[controller] "):
