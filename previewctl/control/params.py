@@ -17,13 +17,13 @@ from pydantic import AfterValidator, BeforeValidator, Field
 from previewctl.errors import ParameterError
 from previewctl.search.ga import GAOptions, Population
 from previewctl.validation import (
+    Checked,
     Count,
     Finite,
     Flag,
     NonNegative,
     Positive,
     Text,
-    check_fields,
     interval,
     invalid,
     table,
@@ -70,7 +70,7 @@ PreviewWeights = Annotated[tuple[Finite, ...], AfterValidator(_preview_weights)]
 
 
 @dataclass(frozen=True)
-class ControllerParams:
+class ControllerParams(Checked):
     """Parameters of every controller (each mode reads the ones it needs).
 
     Attributes:
@@ -108,14 +108,9 @@ class ControllerParams:
     ga_options: tuple[tuple[Text, Any], ...] = field(default=())
     with_gradient: Flag = False
 
-    def __post_init__(self) -> None:
-        """Check every field, and the GA settings together.
-
-        Raises:
-            ParameterError: a bad value (the message names the field and the value), an unknown GA
-                option, or ``elite + top_k >= population``.
-        """
-        check_fields(self, ParameterError)
+    def check(self) -> None:
+        """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
+        ``elite + top_k < population``)."""
         more = validate(GA_SETTINGS, dict(self.ga_options), ParameterError, where="ga_options")
         GAOptions(population=self.population, elite=self.elite, top_k=self.top_k,
                   **more.model_dump(exclude_unset=True))

@@ -30,7 +30,7 @@ from previewctl.errors import ParameterError
 from previewctl.kinematics import Kinematics, kinematics
 from previewctl.robot.model import Robot
 from previewctl.types import Array
-from previewctl.validation import Finite, NonNegative, Positive, check_fields, interval
+from previewctl.validation import Checked, Finite, NonNegative, Positive, interval
 
 
 def unit_ball_volume(p: int) -> float:
@@ -39,7 +39,7 @@ def unit_ball_volume(p: int) -> float:
 
 
 @dataclass(frozen=True)
-class IndexParams:
+class IndexParams(Checked):
     """Parameters of the AMSI.
 
     Attributes:
@@ -52,14 +52,6 @@ class IndexParams:
     weights: tuple[NonNegative, ...] | None = None
     length_unit: Positive = 0.01
     rank_tolerance: Annotated[Finite, interval(0, 1, "()")] = 1e-9
-
-    def __post_init__(self) -> None:
-        """Check every field.
-
-        Raises:
-            ParameterError: a bad field, named with its value.
-        """
-        check_fields(self, ParameterError)
 
     def weight_vector(self, count: int) -> Array:
         """The weights ``a_i`` as an array of ``count`` entries."""

@@ -8,13 +8,12 @@ from typing import Annotated
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.errors import ParameterError
 from previewctl.types import Array
-from previewctl.validation import Finite, Negative, Positive, check_fields, interval
+from previewctl.validation import Checked, Finite, Negative, Positive, interval
 
 
 @dataclass(frozen=True)
-class Potential:
+class Potential(Checked):
     """The obstacle potential ``U`` (see the module docstring).
 
     Attributes:
@@ -26,14 +25,6 @@ class Potential:
     influence_distance: Positive = 0.15
     gain: Annotated[Finite, interval(0, 1, "(]")] = 1.0
     collision_value: Negative = -1.0
-
-    def __post_init__(self) -> None:
-        """Check every field.
-
-        Raises:
-            ParameterError: a bad field, named with its value.
-        """
-        check_fields(self, ParameterError)
 
     def apply(self, amsi: Array, link_distances: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
         """``(S, U, collision)`` from ``amsi`` ``(B,)`` and ``link_distances`` ``(B, L)`` [m]."""

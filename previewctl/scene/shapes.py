@@ -17,7 +17,7 @@ from pydantic import AfterValidator, BeforeValidator
 
 from previewctl.errors import SceneError
 from previewctl.scene.motion import Motion, Static
-from previewctl.validation import Finite, Flag, Positive, Size, Text, check_fields, invalid, show
+from previewctl.validation import Checked, Finite, Flag, Positive, Size, Text, invalid, show
 
 
 def _nonzero(vector: tuple[float, ...]) -> tuple[float, ...]:
@@ -39,20 +39,14 @@ Scale = Annotated[tuple[Finite, Finite, Finite], Size(3), BeforeValidator(_tripl
 """Scale factors along x, y, z (one number for all three)."""
 
 
-class _Checked:
+class _Shape(Checked):
     """A shape checks its fields against their annotations when it is made."""
 
-    def __post_init__(self) -> None:
-        """Check every field.
-
-        Raises:
-            SceneError: a bad field, named with its value.
-        """
-        check_fields(self, SceneError)
+    error = SceneError
 
 
 @dataclass(frozen=True)
-class Sphere(_Checked):
+class Sphere(_Shape):
     """A ball of ``radius`` [m] centred on the obstacle's position."""
 
     radius: Positive
@@ -62,7 +56,7 @@ class Sphere(_Checked):
 
 
 @dataclass(frozen=True)
-class Box(_Checked):
+class Box(_Shape):
     """A box of edge lengths ``size`` [m] (x, y, z in the obstacle frame), centred on its position."""
 
     size: Lengths3
@@ -72,7 +66,7 @@ class Box(_Checked):
 
 
 @dataclass(frozen=True)
-class Capsule(_Checked):
+class Capsule(_Shape):
     """A capsule of ``radius`` [m] whose axis of ``length`` [m] is the obstacle frame's z axis."""
 
     radius: Positive
@@ -83,7 +77,7 @@ class Capsule(_Checked):
 
 
 @dataclass(frozen=True)
-class Cylinder(_Checked):
+class Cylinder(_Shape):
     """A cylinder of ``radius`` [m] and ``length`` [m] along the obstacle frame's z axis."""
 
     radius: Positive
@@ -94,7 +88,7 @@ class Cylinder(_Checked):
 
 
 @dataclass(frozen=True)
-class Halfspace(_Checked):
+class Halfspace(_Shape):
     """The solid ``{x : n . x <= offset}`` in the obstacle frame (``n`` normalised)."""
 
     normal: Normal
@@ -105,7 +99,7 @@ class Halfspace(_Checked):
 
 
 @dataclass(frozen=True)
-class Plane(_Checked):
+class Plane(_Shape):
     """The (two-sided, zero-thickness) plane ``{x : n . x = offset}`` in the obstacle frame."""
 
     normal: Normal
@@ -116,7 +110,7 @@ class Plane(_Checked):
 
 
 @dataclass(frozen=True)
-class Mesh(_Checked):
+class Mesh(_Shape):
     """A triangle mesh loaded from ``path`` (STL, OBJ, DAE, ...), scaled by ``scale``.
 
     ``convex=True`` uses its convex hull (fast); ``False`` keeps the exact mesh.

@@ -41,7 +41,7 @@ from previewctl.search.newton import NewtonRedundancy
 from previewctl.search.redundancy import RedundancyMap, wrap_angle
 from previewctl.search.scoring import Scored, score, score_configurations
 from previewctl.types import Array
-from previewctl.validation import Count, Finite, Integer, NonNegative, Probability, build, check_fields, interval
+from previewctl.validation import Checked, Count, Finite, Integer, NonNegative, Probability, build, interval
 
 # ------------------------------------------------------------------------------------- 1-step GA
 
@@ -50,7 +50,7 @@ Population = Annotated[Integer, Field(ge=4)]
 
 
 @dataclass(frozen=True)
-class GAOptions:
+class GAOptions(Checked):
     """Settings of the 1-step GA (:class:`OneStepGA` describes the operators).
 
     Attributes:
@@ -77,13 +77,8 @@ class GAOptions:
     blend: NonNegative = 0.5
     branch_flip: Probability = 0.1
 
-    def __post_init__(self) -> None:
-        """Check every field, and that the elite and the peaks leave room for children.
-
-        Raises:
-            ParameterError: a bad field (named with its value) or ``elite + top_k >= population``.
-        """
-        check_fields(self, ParameterError)
+    def check(self) -> None:
+        """The elite and the peaks leave room for children: ``elite + top_k < population``."""
         if self.elite + self.top_k >= self.population:
             raise ParameterError(
                 f"elite + top_k must be below population: {self.elite} + {self.top_k} >= {self.population}"

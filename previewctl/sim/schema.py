@@ -47,7 +47,7 @@ from previewctl.index.potential import Potential
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Geometry, Robot, Task
 from previewctl.scene.schema import Angles, ObstacleTable
-from previewctl.validation import Finite, Flag, Integer, Positive, Section, Text, check_fields, invalid, table
+from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, table
 
 Figure = Literal["strobe", "S", "clearance", "error"]
 FIGURES: tuple[Figure, ...] = get_args(Figure)
@@ -88,7 +88,7 @@ class RobotSpec:
 
 
 @dataclass(frozen=True)
-class Timing:
+class Timing(Checked):
     """Time steps of a run.
 
     Attributes:
@@ -101,13 +101,8 @@ class Timing:
     frame: Positive = 0.033
     duration: Positive = 1.0
 
-    def __post_init__(self) -> None:
-        """Check every field, and that a run has a step.
-
-        Raises:
-            ParameterError: a bad field (named with its value), or ``dt > duration``.
-        """
-        check_fields(self, ParameterError)
+    def check(self) -> None:
+        """A run has a step: ``dt <= duration``."""
         if self.dt > self.duration:
             raise ParameterError(f"dt = {self.dt} s is longer than duration = {self.duration} s")
 
@@ -118,7 +113,7 @@ class Timing:
 
 
 @dataclass(frozen=True)
-class OutputSpec:
+class OutputSpec(Checked):
     """What ``previewctl run`` writes besides the log.
 
     Attributes:
@@ -130,14 +125,6 @@ class OutputSpec:
     figures: tuple[Figure, ...] = FIGURES
     gif: Flag = True
     strobe_poses: Annotated[Integer, Field(ge=2)] = 12
-
-    def __post_init__(self) -> None:
-        """Check every field.
-
-        Raises:
-            ParameterError: a bad field, named with its value.
-        """
-        check_fields(self, ParameterError)
 
 
 # ------------------------------------------------------------------------------------- sections

@@ -12,7 +12,7 @@ whether it comes from a file (the TOML schemas :mod:`previewctl.sim.schema` and
   ``Annotated[Finite, interval(0, 1, "(]")]`` for another two-sided bound,
   ``Annotated[tuple[Finite, ...], Size(3)]`` for a vector; :func:`invalid` for a rule of one's own.
 * :mod:`~previewctl.validation.tables`: :class:`Section` (``extra="forbid"``), :func:`table`,
-  :func:`check_fields`, :func:`build`, :func:`validate`.
+  :class:`Checked` (a value object that checks itself), :func:`check_fields`, :func:`build`, :func:`validate`.
 * :mod:`~previewctl.validation.messages`: :func:`explain` turns a :class:`pydantic.ValidationError`
   into one line with the dotted key (``controller.gain``, ``obstacles[1].motion.velocity``), the bad
   value, what was expected, the valid choices and, for a near miss, a "did you mean". No
@@ -45,10 +45,10 @@ from previewctl.validation.fields import (
     invalid,
 )
 from previewctl.validation.messages import explain
-from previewctl.validation.tables import Section, build, check_fields, fields_of, table, validate
+from previewctl.validation.tables import Checked, Section, build, check_fields, fields_of, table, validate
 
 __all__ = [
-    "ROTATION_TOLERANCE", "Count", "Finite", "Flag", "Integer", "Negative", "NonNegative", "Positive", "Probability",
-    "Section", "Size", "Text", "build", "check_fields", "check_finite", "explain", "fields_of", "interval", "invalid",
-    "real_array", "real_scalar", "rotation_matrix", "show", "table", "validate",
+    "ROTATION_TOLERANCE", "Checked", "Count", "Finite", "Flag", "Integer", "Negative", "NonNegative", "Positive",
+    "Probability", "Section", "Size", "Text", "build", "check_fields", "check_finite", "explain", "fields_of",
+    "interval", "invalid", "real_array", "real_scalar", "rotation_matrix", "show", "table", "validate",
 ]

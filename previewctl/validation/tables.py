@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from typing import Any, TypeVar, get_type_hints
+from typing import Any, ClassVar, TypeVar, get_type_hints
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, create_model
+from pydantic import BaseModel, ConfigDict, TypeAdapter, ValidationError, create_model
 
-from previewctl.errors import PreviewctlError
+from previewctl.errors import ParameterError, PreviewctlError
 from previewctl.validation.messages import explain
 
 
@@ -21,19 +21,11 @@ class Section(BaseModel):
 
 def fields_of(cls: type, exclude: tuple[str, ...] = ()) -> dict[str, Any]:
     """The init fields of dataclass ``cls`` as :func:`pydantic.create_model` definitions
-    ``name -> (annotation, default)``; the annotations carry the bounds."""
+    ``name -> (annotation, default)``; the annotations carry the bounds (fields with a
+    ``default_factory`` are not supported: a value object's defaults are immutable)."""
     hints = get_type_hints(cls, include_extras=True)
-    out: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):
-        if f.init and f.name not in exclude:
-            if f.default is not dataclasses.MISSING:
-                default: Any = f.default
-            elif f.default_factory is not dataclasses.MISSING:
-                default = Field(default_factory=f.default_factory)
-            else:
-                default = ...
-            out[f.name] = (hints[f.name], default)
-    return out
+    return {f.name: (hints[f.name], ... if f.default is dataclasses.MISSING else f.default)
+            for f in dataclasses.fields(cls) if f.init and f.name not in exclude}
 
 
 def table(title: str, cls: type, /, *, exclude: tuple[str, ...] = (), base: type[Section] = Section,
@@ -52,6 +44,23 @@ def _model_of(cls: type) -> type[Section]:
     if cls not in _MODELS:
         _MODELS[cls] = table(cls.__name__, cls)
     return _MODELS[cls]
+
+
+class Checked:
+    """Base of a frozen dataclass that checks every field against its annotation when it is made.
+
+    A rule across fields goes in :meth:`check`. The error type is :attr:`error`.
+    """
+
+    error: ClassVar[type[PreviewctlError]] = ParameterError
+
+    def __post_init__(self) -> None:
+        """Raises :attr:`error` for a bad field (named with its value) or a broken :meth:`check` rule."""
+        check_fields(self, self.error)
+        self.check()
+
+    def check(self) -> None:
+        """Rules across fields; none unless a subclass has some."""
 
 
 def check_fields(obj: Any, error: type[PreviewctlError]) -> None:
