@@ -22,15 +22,21 @@ dataclass fields by :func:`previewctl.validation.table`, so the file and the API
 
 How to add a key:
 
-* to a mirrored section: add the field to its value object, its bound in the annotation (a type of
-  :mod:`previewctl.validation`, e.g. ``Positive`` or ``Annotated[Finite, interval(0, 1, "(]")]``)
-  and its unit in the docstring. The file accepts it at once and the builder passes it on.
+* to a mirrored section, add the field to its value object, with its bound as the annotation (a
+  type of :mod:`previewctl.validation`) and its unit in the docstring. For instance, in
+  ``ControllerParams``: ``max_step: Positive = 0.1`` ("max_step: largest joint step [rad]"). Nothing
+  else: ``max_step = 0.2`` in ``[controller]`` is then accepted and passed on, ``max_step = 0`` is
+  refused with "controller.max_step must be > 0, got 0", and ``ControllerParams(max_step=0)``
+  raises a ``ParameterError`` with the same words.
 * to ``[path]``, ``[robot]`` (``q0``) or the top level: add a field to the model here and read it
   in :func:`~previewctl.sim.scenario.scenario_from_dict`.
-* a rule across keys: a ``model_validator`` that raises :func:`previewctl.validation.invalid`, or,
-  for a value object, a check in its ``__post_init__`` raising its error type.
+* a rule across keys: the ``check()`` method of the value object (a
+  :class:`~previewctl.validation.Checked`), or a ``model_validator`` here that raises
+  :func:`previewctl.validation.invalid`.
+* an obstacle shape or a motion type: see :mod:`previewctl.scene.schema`.
 
-Messages come from :func:`previewctl.validation.explain`; add a test for the new key's message.
+Messages come from :func:`previewctl.validation.explain`; add a test of the new key's message
+(``tests/test_scenario.py`` has one per section).
 """
 
 from __future__ import annotations
