@@ -7,6 +7,7 @@ redundancy space and single/multi-preview control, for any arm described by a UR
 
 from previewctl.errors import (
     ConfigurationError,
+    ParameterError,
     PreviewctlError,
     RobotLoadError,
     ScenarioError,
@@ -37,6 +38,7 @@ __all__ = [
     "IndexParams",
     "Mesh",
     "Obstacle",
+    "ParameterError",
     "Plane",
     "Potential",
     "PreviewctlError",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
@@ -13,13 +13,10 @@ from previewctl.control.params import ControllerParams, ControllerSpec
 from previewctl.control.preview import PreviewController, SearchFactory, SearchLike
 from previewctl.control.reach import ReachController
 from previewctl.control.tracking import TrackingController
-from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
-
-ControllerName = Literal["none", "gradient", "single", "multi", "reach"]
 
 
 def make_controller(
@@ -60,14 +57,8 @@ def _ga_factory(robot: Robot, evaluator: Evaluator, params: ControllerParams, mo
     redundancy = redundancy_map(robot)
     options: Mapping[str, Any] = dict(params.ga_options)
 
-    def factory(i: int, rng: np.random.Generator) -> SearchLike:
-        try:
-            ga: SearchLike = OneStepGA(
-                robot, evaluator, redundancy, rng,
-                population=params.population, elite=params.elite, top_k=params.top_k, **options,
-            )
-        except TypeError as exc:
-            raise ConfigurationError(f"controller GA options {dict(options)!r} rejected: {exc}") from exc
-        return ga
+    def factory(i: int, rng: np.random.Generator) -> SearchLike:  # the options were checked by ControllerParams
+        return OneStepGA(robot, evaluator, redundancy, rng,
+                         population=params.population, elite=params.elite, top_k=params.top_k, **options)
 
     return factory
