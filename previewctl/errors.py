@@ -30,6 +30,10 @@ class ConfigurationError(PreviewctlError, ValueError):
     """A joint configuration (or batch) of the wrong shape, or with non-finite entries."""
 
 
+class ParameterError(PreviewctlError, ValueError):
+    """A bad parameter value (a time, a period, a gain, ...) other than a joint configuration."""
+
+
 class SceneError(PreviewctlError, ValueError):
     """An obstacle or scene description that cannot be built."""
 
