@@ -22,8 +22,8 @@ def test_every_public_name_resolves_and_is_documented() -> None:
 def test_a_first_run_needs_one_import() -> None:
     """The package docstring's loop: planar4 along a line past a disc with multi-preview control."""
     robot = pc.load_robot("planar4")
-    path = pc.HandPath([[1.9069, 1.0417], [1.6069, 0.6417]], duration=5.0)
-    scene = pc.Scene((pc.Obstacle("disc", pc.Sphere(0.15), pc.Static([1.2, 0.3, 0.0])),))
+    path = pc.HandPath([[1.9069, 1.0417], [0.80, 1.60]], duration=8.0)
+    scene = pc.Scene((pc.Obstacle("disc", pc.Cylinder(0.1, 0.4), pc.Static([0.55, 1.80, 0.0])),))
     ctrl = pc.make_controller("multi", robot=robot, path=path, scene=scene, seed=0)
     q, dt = np.array([0.6, 1.0, -1.2, -1.0]), 0.01
     for k in range(50):
