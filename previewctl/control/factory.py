@@ -9,6 +9,7 @@ stream (``Generator.spawn``), so the arms are independent and the same seed give
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
@@ -120,34 +121,56 @@ def make_controller(
         ParameterError: ``source`` neither a scenario nor a name, a missing ``robot``/``path``,
             or a bad ``frame``/``dt``/``seed``.
     """
+    base = _defaults(source, name)
+    robot = base.robot if robot is None else robot
+    path = base.path if path is None else path
+    if robot is None or path is None:
+        missing = " and ".join(k for k, v in (("robot=", robot), ("path=", path)) if v is None)
+        raise ParameterError(f"make_controller({source!r}) needs {missing} (or a scenario instead of the name)")
+    if base.name not in CONTROLLER_NAMES:
+        raise UnknownNameError("controller", base.name, CONTROLLER_NAMES)
+    evaluator = Evaluator(
+        robot,
+        base.scene if scene is None else scene,
+        base.index if index is None else index,
+        base.potential if potential is None else potential,
+    )
+    rng = _generator(base.seed if seed is None else seed)
+    spec = ControllerSpec(base.name, base.params if params is None else params)
+    law = build_law(spec, robot, evaluator, rng, search_factory=search_factory)
+    return Controller(law, robot, path, frame=base.frame if frame is None else frame, dt=base.dt if dt is None else dt)
+
+
+@dataclass(frozen=True)
+class _Defaults:
+    """What :func:`make_controller` uses for the parts not given: a scenario's, or the library's."""
+
+    name: str
+    params: ControllerParams
+    seed: int
+    frame: float
+    dt: float
+    robot: Robot | None = None
+    path: HandPath | None = None
+    scene: Scene | None = None
+    index: IndexParams | None = None
+    potential: Potential | None = None
+
+
+def _defaults(source: object, name: str | None) -> _Defaults:
+    """The defaults of a scenario, or of a bare controller name (no robot, no path, seed 0)."""
     if isinstance(source, str):
         if name is not None:
             raise ParameterError(f"the controller name is given twice: {source!r} and name={name!r}")
-        if robot is None or path is None:
-            missing = " and ".join(k for k, v in (("robot=", robot), ("path=", path)) if v is None)
-            raise ParameterError(f"make_controller({source!r}) needs {missing} (or a scenario instead of the name)")
-        chosen, default_seed, timing = source, 0, (FRAME_PERIOD, CONTROL_PERIOD)
-        spec_params = ControllerParams() if params is None else params
-    elif isinstance(source, ScenarioLike):
-        chosen, default_seed = name or source.controller.name, source.seed
-        timing = (source.timing.frame, source.timing.dt)
-        robot = source.robot if robot is None else robot
-        path = source.path if path is None else path
-        scene = source.scene if scene is None else scene
-        index = source.index if index is None else index
-        potential = source.potential if potential is None else potential
-        spec_params = source.controller.params if params is None else params
-    else:
-        raise ParameterError(
-            f"make_controller takes a scenario or a controller name ({', '.join(CONTROLLER_NAMES)}), got {source!r}"
+        return _Defaults(source, ControllerParams(), 0, FRAME_PERIOD, CONTROL_PERIOD)
+    if isinstance(source, ScenarioLike):
+        return _Defaults(
+            name or source.controller.name, source.controller.params, source.seed, source.timing.frame,
+            source.timing.dt, source.robot, source.path, source.scene, source.index, source.potential,
         )
-    if chosen not in CONTROLLER_NAMES:
-        raise UnknownNameError("controller", chosen, CONTROLLER_NAMES)
-    evaluator = Evaluator(robot, scene, index, potential)
-    rng = _generator(default_seed if seed is None else seed)
-    law = build_law(ControllerSpec(chosen, spec_params), robot, evaluator, rng, search_factory=search_factory)
-    return Controller(law, robot, path, frame=timing[0] if frame is None else frame,
-                      dt=timing[1] if dt is None else dt)
+    raise ParameterError(
+        f"make_controller takes a scenario or a controller name ({', '.join(CONTROLLER_NAMES)}), got {source!r}"
+    )
 
 
 def _generator(seed: int | np.random.Generator) -> np.random.Generator:
