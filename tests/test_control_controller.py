@@ -44,7 +44,8 @@ class CountingSearch:
     """A stand-in for the 1-step GA: returns a fixed configuration and counts its generations."""
 
     def __init__(self, q: Array) -> None:
-        self.best, self.times = Best(np.array(q, dtype=float), 1.0), list[float]()
+        self.best = Best(np.array(q, dtype=float), 1.0)
+        self.times: list[float] = []
 
     def step(self, target: Array, t: float) -> Best:
         self.times.append(t)
