@@ -37,7 +37,7 @@ from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario
 from previewctl.types import Array
 
-__all__ = ["Progress", "frame_index", "simulate"]
+__all__ = ["Progress", "frame_index", "simulate"]  # frame_index lives in control.controller now
 
 Progress = Callable[[float, float], None]
 """``progress(fraction, t)``: fraction of the run done in [0, 1] and simulated time [s]."""
@@ -62,8 +62,9 @@ def simulate(
         progress: called as ``progress(fraction, t)`` after every step.
         stop_on_collision: stop at the first exact collision (default) or log it and go on.
         seed: random seed of the controller (default: the scenario's).
-        controller: a ready-made controller (overrides ``controller_name`` and ``seed``; for tests
-            and experiments), e.g. from :func:`~previewctl.control.factory.make_controller`.
+        controller: a ready-made, fresh controller (overrides ``controller_name`` and ``seed``; for
+            tests and experiments), e.g. from :func:`~previewctl.control.factory.make_controller`.
+            A controller keeps its searches and frame clock between steps: do not reuse one.
         exact_evaluator: the evaluator of the exact check (default: one on the robot reloaded with
             ``geometry="mesh"``; pass one to share the mesh loading between runs).
 
