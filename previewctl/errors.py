@@ -32,7 +32,7 @@ class ConfigurationError(PreviewctlError, ValueError):
 
 class ParameterError(PreviewctlError, ValueError):
     """A bad parameter of the API: a controller, index, potential, timing or GA setting out of its bounds,
-    an unknown option name, or an option of the wrong type."""
+    an unknown option name, an option of the wrong type, or a bad time, period or seed."""
 
 
 class SceneError(PreviewctlError, ValueError):

@@ -13,7 +13,7 @@ from helpers import PLANAR_Q0, PLANAR_START, planar_doc
 from numpy.typing import NDArray
 
 from previewctl.control.base import ControlState
-from previewctl.control.factory import make_controller
+from previewctl.control.factory import build_law, make_controller
 from previewctl.control.gradient import GradientController
 from previewctl.control.params import (
     CONTROLLER_NAMES,
@@ -59,9 +59,8 @@ def panda_scenario() -> Scenario:
     return scenario_from_dict(doc)
 
 
-def state_for(robot: Robot, q: Array, path: HandPath, scene: Scene | None = None, *, dt: float = 0.01,
-              frame_due: bool = True) -> ControlState:
-    return ControlState(kinematics(robot, q[None, :]), path, scene or Scene(), dt, frame_due)
+def state_for(robot: Robot, q: Array, path: HandPath, *, dt: float = 0.01, frame_due: bool = True) -> ControlState:
+    return ControlState(kinematics(robot, q[None, :]), path, dt, frame_due)
 
 
 def quick(scenario: Scenario, controller: str) -> Any:
@@ -101,7 +100,7 @@ def test_null_space_part_does_not_move_the_hand(panda_scenario: Scenario) -> Non
     rng = np.random.default_rng(3)
     for q in [s.q0, *(s.q0 + rng.normal(0, 0.2, 7) for _ in range(3))]:
         q = np.clip(q, s.robot.lower_limits, s.robot.upper_limits)
-        state = state_for(s.robot, q, s.path, s.scene)
+        state = state_for(s.robot, q, s.path)
         _, info = controller.command(0.5, q, state)
         J = state.kin.J_task[0]
         assert np.linalg.norm(info.qdot_null) > 1e-3
@@ -177,8 +176,7 @@ def test_position_limits_hold_when_the_null_space_drive_pushes_past_them(panda_s
     spec = ControllerSpec("single", ControllerParams(gain=(5.0,)))
     scenario = replace(panda_scenario, scene=Scene(), controller=spec)
     ev = Evaluator(robot, scenario.scene)
-    controller = make_controller(spec, robot, ev, np.random.default_rng(0),
-                                 search_factory=lambda i, rng: FakeGA(beyond))
+    controller = make_controller(scenario, search_factory=lambda i, rng: FakeGA(beyond))
     run = simulate(scenario, controller=controller, exact_evaluator=ev)
     lo, hi = robot.lower_limits, robot.upper_limits
     assert (run.q >= lo - 1e-9).all() and (run.q <= hi + 1e-9).all()
@@ -297,12 +295,12 @@ def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
     params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True)
     q = np.array(PLANAR_Q0)
     controller = PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
-    _, info = controller.command(1.0, q, state_for(planar4, q, path, scene))
+    _, info = controller.command(1.0, q, state_for(planar4, q, path))
     local = GradientController(planar4, evaluator, params).null_space_input(q, 1.0)
     assert np.linalg.norm(local) > 0
     np.testing.assert_allclose(info.v, local, rtol=1e-12, atol=1e-15)
     plain = PreviewController(planar4, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
-    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path, scene))[1].v, 0.0, atol=1e-15)
+    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path))[1].v, 0.0, atol=1e-15)
     with pytest.raises(ConfigurationError, match="with_gradient needs the AMSIP evaluator"):
         PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)])
     with pytest.raises(ParameterError, match="with_gradient must be true or false"):
@@ -341,8 +339,7 @@ def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(pl
     target = planar_ik(scenario.robot, (0.9, 0.6), goal_tip)
     fake = FakeGA(target)
     ev = Evaluator(scenario.robot, scenario.scene)
-    controller = make_controller(scenario.controller, scenario.robot, ev, np.random.default_rng(0),
-                                 search_factory=lambda i, rng: fake)
+    controller = make_controller(scenario, search_factory=lambda i, rng: fake)
     run = simulate(scenario, controller=controller, exact_evaluator=ev)
     assert run.controller == "single"
     assert run.hand_error.max() < TRACKING_TOLERANCE
@@ -412,9 +409,9 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
 
-def test_make_controller_builds_reach_with_real_searches(planar4: Robot) -> None:
-    controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
-                                 Evaluator(planar4), np.random.default_rng(0))
+def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:
+    controller = build_law(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
+                           Evaluator(planar4), np.random.default_rng(0))
     assert isinstance(controller, ReachController) and len(controller.searches) == 3
 
 

@@ -196,6 +196,7 @@ def track(
     info = ControlInfo(
         desired_position=r_d,
         desired_velocity=rdot_d,
+        hand_position=tip,
         task_error=error,
         v=np.array(v, dtype=float),
         qdot_task=qdot_task,
@@ -205,6 +206,8 @@ def track(
         scale=scale,
         clamped=clamped,
         damping=lam,
+        dt=state.dt,
+        frame_due=state.frame_due,
         targets=targets,
         target_amsip=target_amsip,
     )
