@@ -30,6 +30,11 @@ class ConfigurationError(PreviewctlError, ValueError):
     """A joint configuration (or batch) of the wrong shape, or with non-finite entries."""
 
 
+class ParameterError(PreviewctlError, ValueError):
+    """A bad parameter of the API: a controller, index, potential, timing or GA setting out of its bounds,
+    an unknown option name, an option of the wrong type, or a bad time, period or seed."""
+
+
 class SceneError(PreviewctlError, ValueError):
     """An obstacle or scene description that cannot be built."""
 

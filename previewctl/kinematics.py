@@ -8,8 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from previewctl.errors import ConfigurationError
 from previewctl.robot.model import Robot
 from previewctl.types import Array
+from previewctl.validation import show
 
 
 @dataclass(frozen=True)
@@ -145,3 +147,22 @@ def kinematics(
 def kinematics_reader(robot: Robot, data: pin.Data | None = None) -> FrameKinematics:
     """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip."""
     return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data)
+
+
+def integrate(robot: Robot, q: Array, qdot: Array, dt: float) -> Array:
+    """The configuration reached from ``q`` ``(nq,)`` moving at ``qdot`` ``(nv,)`` [rad/s] for ``dt`` [s].
+
+    ``q ⊕ q̇ dt`` (``pin.integrate``): ``q + q̇ dt`` for ordinary joints, a rotation of the (cos, sin)
+    pair for a continuous joint, where plain addition would be wrong.
+
+    Raises:
+        ConfigurationError: ``q`` or ``qdot`` of the wrong length or not finite.
+    """
+    batch, single = robot.check_configurations(q)
+    velocity = np.asarray(qdot, dtype=float)
+    if not single or velocity.shape != (robot.nv,) or not np.isfinite(velocity).all():
+        raise ConfigurationError(
+            f"integrate needs one configuration ({robot.nq},) and a finite velocity ({robot.nv},); "
+            f"got q of shape {np.shape(q)} and qdot = {show(velocity)}"
+        )
+    return np.asarray(pin.integrate(robot.model, batch[0], velocity * dt), dtype=float)

@@ -4,7 +4,7 @@ tracking, null-space input, limits, eqs. 20-21 with stand-in searches, the reach
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 import pinocchio as pin
@@ -13,13 +13,19 @@ from helpers import PLANAR_Q0, PLANAR_START, planar_doc
 from numpy.typing import NDArray
 
 from previewctl.control.base import ControlState
-from previewctl.control.factory import make_controller
+from previewctl.control.factory import build_law, make_controller
 from previewctl.control.gradient import GradientController
-from previewctl.control.params import ControllerParams, ControllerSpec, check_preview_weights
+from previewctl.control.params import (
+    CONTROLLER_NAMES,
+    PREVIEW_MODES,
+    ControllerName,
+    ControllerParams,
+    ControllerSpec,
+)
 from previewctl.control.preview import PreviewController, wrapped_difference
 from previewctl.control.reach import ReachController
 from previewctl.control.tracking import TrackingController, apply_limits, damped_pseudo_inverse
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
@@ -53,9 +59,8 @@ def panda_scenario() -> Scenario:
     return scenario_from_dict(doc)
 
 
-def state_for(robot: Robot, q: Array, path: HandPath, scene: Scene | None = None, *, dt: float = 0.01,
-              frame_due: bool = True) -> ControlState:
-    return ControlState(kinematics(robot, q[None, :]), path, scene or Scene(), dt, frame_due)
+def state_for(robot: Robot, q: Array, path: HandPath, *, dt: float = 0.01, frame_due: bool = True) -> ControlState:
+    return ControlState(kinematics(robot, q[None, :]), path, dt, frame_due)
 
 
 def quick(scenario: Scenario, controller: str) -> Any:
@@ -95,7 +100,7 @@ def test_null_space_part_does_not_move_the_hand(panda_scenario: Scenario) -> Non
     rng = np.random.default_rng(3)
     for q in [s.q0, *(s.q0 + rng.normal(0, 0.2, 7) for _ in range(3))]:
         q = np.clip(q, s.robot.lower_limits, s.robot.upper_limits)
-        state = state_for(s.robot, q, s.path, s.scene)
+        state = state_for(s.robot, q, s.path)
         _, info = controller.command(0.5, q, state)
         J = state.kin.J_task[0]
         assert np.linalg.norm(info.qdot_null) > 1e-3
@@ -171,8 +176,7 @@ def test_position_limits_hold_when_the_null_space_drive_pushes_past_them(panda_s
     spec = ControllerSpec("single", ControllerParams(gain=(5.0,)))
     scenario = replace(panda_scenario, scene=Scene(), controller=spec)
     ev = Evaluator(robot, scenario.scene)
-    controller = make_controller(spec, robot, ev, np.random.default_rng(0),
-                                 search_factory=lambda i, rng: FakeGA(beyond))
+    controller = make_controller(scenario, search_factory=lambda i, rng: FakeGA(beyond))
     run = simulate(scenario, controller=controller, exact_evaluator=ev)
     lo, hi = robot.lower_limits, robot.upper_limits
     assert (run.q >= lo - 1e-9).all() and (run.q <= hi + 1e-9).all()
@@ -187,37 +191,57 @@ def test_position_limits_hold_when_the_null_space_drive_pushes_past_them(panda_s
 @pytest.mark.parametrize(
     ("weights", "message"),
     [
-        ([0.5, 0.6], "sum to 1"),
-        ([1.0], "0 < k_i < 1"),
+        ([0.5, 0.6], "weights = [0.5, 0.6]: the k_i must sum to 1, they sum to 1.1"),
+        ([1.0], "weights = [1.0]: k_1 = 1.0 must satisfy 0 < k_i < 1; for one preview use the 'single'"),
         ([0.0, 1.0], "k_1 = 0.0"),
         ([1.2, -0.2], "k_1 = 1.2"),
-        ([], "non-empty"),
-        (["a", 0.5], "list of numbers"),
+        ([], "weights must be a non-empty list"),
+        (["a", 0.5], "weights[0] must be a finite number, got 'a'"),
     ],
 )
 def test_preview_weights_validation(weights: list[Any], message: str) -> None:
-    with pytest.raises(ConfigurationError, match=message) as info:
-        check_preview_weights(weights, "controller.weights")
-    assert "controller.weights" in str(info.value)
-    with pytest.raises(ConfigurationError, match="weights"):
+    with pytest.raises(ParameterError) as info:
         ControllerParams(weights=tuple(weights))
+    assert message in str(info.value)
 
 
 def test_preview_weights_accept_the_paper_values() -> None:
-    assert check_preview_weights([0.3, 0.65, 0.05]) == (0.3, 0.65, 0.05)
+    assert ControllerParams(weights=[0.3, 0.65, 0.05]).weights == (0.3, 0.65, 0.05)  # type: ignore[arg-type]
     assert ControllerParams().preview_weights("single") == (1.0,)
     assert ControllerParams(weights=(0.5, 0.5)).preview_weights("multi") == (0.5, 0.5)
 
 
-def test_controller_params_reject_bad_values() -> None:
-    with pytest.raises(ConfigurationError, match="velocity_scale"):
-        ControllerParams(velocity_scale=1.5)
-    with pytest.raises(ConfigurationError, match="gain"):
-        ControllerParams(gain=(-1.0,))
-    with pytest.raises(ConfigurationError, match="elite"):
-        ControllerParams(population=4, elite=4)
-    with pytest.raises(ConfigurationError, match="unknown controller 'fancy'"):
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"velocity_scale": 1.5}, "velocity_scale must lie in (0, 1], got 1.5"),
+        ({"gain": (-1.0,)}, "gain[0] must be > 0, got -1.0"),
+        ({"gain": ()}, "gain must have at least 1 entry"),
+        ({"feedback_gain": "5"}, "feedback_gain must be a finite number, got '5'"),
+        ({"damping": float("nan")}, "damping must be finite, got nan"),
+        ({"previews": 0}, "previews must be >= 1, got 0"),
+        ({"population": 3}, "population must be >= 4, got 3"),  # the GA's own bound
+        ({"population": 4, "elite": 4}, "elite + top_k must be below population: 4 + 4 >= 4"),
+        ({"ga_options": (("mutaton_scale", 0.1),)},
+         "unknown key 'ga_options.mutaton_scale' (did you mean 'ga_options.mutation_scale'?); valid keys in "
+         "[ga_options]: mutation_scale, niche_radius"),
+        ({"ga_options": (("immigrants", 0.8),)}, "ga_options.immigrants must lie in [0, 0.5], got 0.8"),
+        ({"with_gradient": 1}, "with_gradient must be true or false, got 1"),
+    ],
+)
+def test_controller_params_reject_bad_values(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ParameterError) as info:
+        ControllerParams(**kwargs)
+    assert message in str(info.value)
+
+
+def test_controller_names_come_from_one_list() -> None:
+    assert get_args(ControllerName) == CONTROLLER_NAMES == ("none", "gradient", "single", "multi", "reach")
+    assert PREVIEW_MODES == ("single", "multi", "reach")
+    with pytest.raises(ParameterError, match=r"controller = 'fancy' is not valid; valid: none, gradient, single"):
         ControllerSpec("fancy")
+    with pytest.raises(ParameterError, match=r"\(did you mean 'multi'\?\)"):
+        ControllerSpec("mult")
 
 
 # -------------------------------------------------------------------------- preview skeleton
@@ -271,15 +295,15 @@ def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
     params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True)
     q = np.array(PLANAR_Q0)
     controller = PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
-    _, info = controller.command(1.0, q, state_for(planar4, q, path, scene))
+    _, info = controller.command(1.0, q, state_for(planar4, q, path))
     local = GradientController(planar4, evaluator, params).null_space_input(q, 1.0)
     assert np.linalg.norm(local) > 0
     np.testing.assert_allclose(info.v, local, rtol=1e-12, atol=1e-15)
     plain = PreviewController(planar4, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
-    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path, scene))[1].v, 0.0, atol=1e-15)
+    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path))[1].v, 0.0, atol=1e-15)
     with pytest.raises(ConfigurationError, match="with_gradient needs the AMSIP evaluator"):
         PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)])
-    with pytest.raises(ConfigurationError, match="with_gradient must be true or false"):
+    with pytest.raises(ParameterError, match="with_gradient must be true or false"):
         ControllerParams(with_gradient=1)  # type: ignore[arg-type]
 
 
@@ -329,8 +353,7 @@ def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(pl
     target = planar_ik(scenario.robot, (0.9, 0.6), goal_tip)
     fake = FakeGA(target)
     ev = Evaluator(scenario.robot, scenario.scene)
-    controller = make_controller(scenario.controller, scenario.robot, ev, np.random.default_rng(0),
-                                 search_factory=lambda i, rng: fake)
+    controller = make_controller(scenario, search_factory=lambda i, rng: fake)
     run = simulate(scenario, controller=controller, exact_evaluator=ev)
     assert run.controller == "single"
     assert run.hand_error.max() < TRACKING_TOLERANCE
@@ -400,9 +423,9 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
 
-def test_make_controller_builds_reach_with_real_searches(planar4: Robot) -> None:
-    controller = make_controller(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
-                                 Evaluator(planar4), np.random.default_rng(0))
+def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:
+    controller = build_law(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
+                           Evaluator(planar4), np.random.default_rng(0))
     assert isinstance(controller, ReachController) and len(controller.searches) == 3
 
 

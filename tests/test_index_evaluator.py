@@ -14,10 +14,10 @@ from numpy.typing import NDArray
 
 import previewctl
 from previewctl import (
-    ConfigurationError,
     Evaluator,
     IndexParams,
     Obstacle,
+    ParameterError,
     Potential,
     PreviewctlError,
     Scene,
@@ -302,23 +302,25 @@ def test_potential_shape(planar4: Robot) -> None:
     ],
 )
 def test_potential_validation(kwargs: dict[str, float], match: str) -> None:
-    with pytest.raises(ConfigurationError, match=match) as info:
+    with pytest.raises(ParameterError, match=match) as info:
         Potential(**kwargs)
     assert isinstance(info.value, PreviewctlError)
     assert repr(next(iter(kwargs.values())))[:3] in str(info.value)
 
 
 def test_index_params_validation() -> None:
-    with pytest.raises(ConfigurationError, match="length_unit"):
+    with pytest.raises(ParameterError, match=r"length_unit must be > 0, got 0\.0"):
         IndexParams(length_unit=0.0)
-    with pytest.raises(ConfigurationError, match="rank_tolerance"):
+    with pytest.raises(ParameterError, match=r"weights\[1\] must be >= 0, got -1\.0"):
+        IndexParams(weights=(1.0, -1.0, 1.0))
+    with pytest.raises(ParameterError, match=r"rank_tolerance must lie in \(0, 1\), got 2\.0"):
         IndexParams(rank_tolerance=2.0)
 
 
 def test_evaluator_method_errors(planar4: Robot, panda: Robot) -> None:
-    with pytest.raises(ConfigurationError, match="'fast'"):
+    with pytest.raises(ParameterError, match=r"method = 'fast' is not valid; valid: auto, planar, general"):
         Evaluator(planar4, method="fast")  # type: ignore[arg-type]
-    with pytest.raises(ConfigurationError, match="planar path"):
+    with pytest.raises(ParameterError, match="planar path"):
         evaluate(panda, None, panda.neutral(), method="planar")
     # a box tilted out of the plane cannot take the planar path: "auto" falls back to general
     tilted = Obstacle(
@@ -326,7 +328,7 @@ def test_evaluator_method_errors(planar4: Robot, panda: Robot) -> None:
     )
     evaluator = Evaluator(planar4, Scene((tilted,)))
     assert not evaluator.uses_planar_path()
-    with pytest.raises(ConfigurationError, match="box"):
+    with pytest.raises(ParameterError, match="box"):
         Evaluator(planar4, Scene((tilted,)), method="planar")(np.zeros(4))
 
 

@@ -428,7 +428,9 @@ def test_load_valid_scene(tmp_path: Path, planar4: Robot) -> None:
     ("body", "match"),
     [
         ('[[obstacles]]\nname = "c"\nshape = "cone"\nradius = 0.1\n', r"'cone'.*sphere"),
-        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n', r"'colour'"),
+        ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n',
+         r"unknown key 'obstacles\[0\]\.colour'; valid keys in obstacles\[0\] \(shape = 'sphere'\): "
+         r"name, shape, radius, position"),
         ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = -0.1\n', r"radius.*-0\.1"),
         ('[[obstacles]]\nname = "c"\nshape = "box"\nsize = [0.1, 0.0, 0.1]\n', r"size.*0\.0"),
         ('[[obstacles]]\nname = "c"\nshape = "mesh"\npath = "nope.stl"\n', r"nope\.stl"),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from previewctl.cli.main import main
-from previewctl.errors import ConfigurationError, UnreachableTargetError
+from previewctl.errors import ConfigurationError, ParameterError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot
@@ -219,9 +219,14 @@ def test_ga_seed_injects_a_configuration(planar4: Robot, evaluator: Evaluator, l
 
 def test_ga_bad_options(planar4: Robot, evaluator: Evaluator) -> None:
     red = redundancy_map(planar4)
-    with pytest.raises(ConfigurationError, match="population"):
+    with pytest.raises(ParameterError, match="population must be >= 4, got 2"):
         OneStepGA(planar4, evaluator, red, np.random.default_rng(0), population=2)
-    with pytest.raises(ConfigurationError, match="rng"):
+    with pytest.raises(ParameterError, match=r"unknown key 'mutaton_scale' \(did you mean 'mutation_scale'\?\); "
+                       r"valid keys of GAOptions: population, elite, mutation_scale"):
+        OneStepGA(planar4, evaluator, red, np.random.default_rng(0), mutaton_scale=0.1)
+    with pytest.raises(ParameterError, match=r"elite \+ top_k must be below population: 2 \+ 4 >= 6"):
+        OneStepGA(planar4, evaluator, red, np.random.default_rng(0), population=6)
+    with pytest.raises(ParameterError, match="rng"):
         OneStepGA(planar4, evaluator, red, 0)  # type: ignore[arg-type]
     with pytest.raises(ConfigurationError, match="after the first step"):
         _ = OneStepGA(planar4, evaluator, red, np.random.default_rng(0)).best

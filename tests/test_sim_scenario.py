@@ -7,10 +7,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pydantic
 import pytest
 
 from previewctl.cli.main import main
-from previewctl.errors import PreviewctlError, ScenarioError
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ParameterError, PreviewctlError, ScenarioError
 from previewctl.sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -131,7 +133,8 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
     with pytest.raises(ScenarioError, match=r"unknown key 'controler'.*did you mean 'controller'"):
         scenario_from_dict({**doc(), "controler": {"name": "none"}})
     bad = doc(obstacles=[{"name": "b", "shape": "sphere", "radius": 0.1, "positon": [1, 1]}])
-    with pytest.raises(PreviewctlError, match=r"obstacles\[0\].*'positon'"):
+    with pytest.raises(PreviewctlError,
+                       match=r"unknown key 'obstacles\[0\]\.positon' \(did you mean 'obstacles\[0\]\.position'"):
         scenario_from_dict(bad)
 
 
@@ -145,7 +148,8 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
         ({"controller": {"population": 2.5}}, r"controller\.population must be an integer, got 2\.5"),
         ({"output": {"gif": "yes"}}, r"output\.gif must be true or false"),
         ({"controller": {"name": "multi", "with_gradient": 1}}, r"controller\.with_gradient must be true or false"),
-        ({"output": {"figures": ["strobe", "movie"]}}, r"unknown figure 'movie'; valid: strobe, S"),
+        ({"output": {"figures": ["strobe", "movie"]}},
+         r"output\.figures\[1\] = 'movie' is not valid; valid: strobe, S"),
         ({"index": {"weights": [1.0, 1.0]}}, r"index\.weights has 2 entries; robot 'planar4' has 3 control points"),
         ({"potential": {"gain": 2.0}}, r"potential\.gain must lie in \(0, 1\]"),
         ({"path": {"waypoints": [[1.9069, 1.0417, 0.0], [1.8, 1.0, 0.0]], "duration": 1.0}},
@@ -154,13 +158,100 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
         ({"robot": {"source": "planar4", "q0": [0.6, 1.0, -1.2, -1.0], "geometry": "exact"}},
          r"robot\.geometry = 'exact' is not valid; valid: convex, capsules, mesh"),
         ({"robot": {"source": "nosuchbot", "q0": [0.0]}}, r"robot: unknown robot 'nosuchbot'; valid: planar4"),
-        ({"timing": {"dt": 2.0}}, r"timing\.dt = 2\.0 s is longer than timing\.duration"),
+        ({"timing": {"dt": 2.0}}, r"\[timing\] dt = 2\.0 s is longer than duration = 1\.0 s"),
         ({"seed": -1}, r"seed must be >= 0"),
     ],
 )
 def test_bad_values_name_the_key_and_value(sections: dict[str, Any], pattern: str) -> None:
     with pytest.raises(ScenarioError, match=pattern):
         scenario_from_dict(doc(**sections))
+
+
+@pytest.mark.parametrize(
+    ("sections", "expected"),
+    [
+        # a bad value in each section
+        ({"name": ""}, "scenario: name must not be empty"),
+        ({"description": 3}, "scenario: description must be a string, got 3"),
+        ({"seed": 1.5}, "scenario: seed must be an integer, got 1.5"),
+        ({"robot": {**BASE["robot"], "task": "orientation"}},
+         "robot.task = 'orientation' is not valid; valid: planar, position, pose"),
+        ({"robot": {**BASE["robot"], "guarded_links": 3}},
+         "robot.guarded_links must be a list of strings or one of all, intermediate, got 3"),
+        ({"robot": {**BASE["robot"], "q0": [0.6, "1.0", -1.2, -1.0]}},
+         "robot.q0[1] must be a finite number, got '1.0'"),
+        ({"path": {**BASE["path"], "start_time": float("nan")}}, "path.start_time must be finite, got nan"),
+        ({"path": {**BASE["path"], "orientation_rpy": [0.0, 0.0]}}, "path.orientation_rpy must have 3 entries, got 2"),
+        ({"path": {**BASE["path"], "waypoints": [[1.9069, 1.0417]]}}, "path.waypoints needs at least 2 points, got 1"),
+        ({"obstacles": [{"shape": "box", "size": [0.1, 0.2]}]}, "obstacles[0].size must have 3 entries, got 2"),
+        ({"obstacles": [{"shape": "sphere", "radius": 0.1}, {"shape": "spere", "radius": 0.1}]},
+         "obstacles[1].shape = 'spere' is not valid; valid: sphere, box, capsule, cylinder, halfspace, plane, mesh "
+         "(did you mean 'sphere'?)"),
+        ({"obstacles": [{"shape": "sphere", "radius": 0.1, "position": [1, 1], "motion": {"type": "static",
+                                                                                          "position": [1, 1]}}]},
+         "obstacles[0] gives both 'motion' and 'position'/'rpy'; give one of them"),
+        ({"obstacles": [{"shape": "sphere", "radius": 0.1},
+                        {"shape": "sphere", "radius": 0.1, "motion": {"type": "constant_velocity", "position": [1, 1],
+                                                                       "velocity": [1, "fast"]}}]},
+         "obstacles[1].motion.velocity[1] must be a finite number, got 'fast'"),
+        ({"obstacles": [{"shape": "sphere", "radius": 0.1, "motion": {"type": "periodic", "center": [1, 1],
+                                                                       "amplitude": [0, 1], "period": -2}}]},
+         "obstacles[0].motion.period must be > 0 [s], got -2.0"),
+        ({"controller": {"gain": [1.0, 2.0]}}, "controller.gain has 2 entries; give one number or 4"),
+        ({"controller": {"damping": -0.1}}, "controller.damping must be >= 0, got -0.1"),
+        ({"controller": {"velocity_scale": 0}}, "controller.velocity_scale must lie in (0, 1], got 0.0"),
+        ({"controller": {"population": 3}}, "controller.population must be >= 4, got 3"),
+        ({"controller": {"population": 6}}, "[controller] elite + top_k must be below population: 2 + 4 >= 6"),
+        ({"controller": {"ga": {"immigrants": 0.7}}}, "controller.ga.immigrants must lie in [0, 0.5], got 0.7"),
+        ({"controller": {"ga": {"mutaton_scale": 0.1}}},
+         "unknown key 'controller.ga.mutaton_scale' (did you mean 'controller.ga.mutation_scale'?); valid keys in "
+         "[controller.ga]: mutation_scale, niche_radius, immigrants, tournament, crossover_rate, blend, branch_flip"),
+        ({"controller": {"ga": {"population": 8}}}, "unknown key 'controller.ga.population'"),
+        ({"timing": {"frame": 0}}, "timing.frame must be > 0, got 0"),
+        ({"timing": {"duration": "long"}}, "timing.duration must be a finite number, got 'long'"),
+        ({"index": {"length_unit": -0.01}}, "index.length_unit must be > 0, got -0.01"),
+        ({"index": {"weights": [1.0, -1.0, 1.0]}}, "index.weights[1] must be >= 0, got -1.0"),
+        ({"index": {"rank_tolerance": 0.1}}, "unknown key 'index.rank_tolerance'; valid keys in [index]: weights, "
+                                             "length_unit"),
+        ({"potential": {"collision_value": 1}}, "potential.collision_value must be < 0, got 1"),
+        ({"potential": {"influence_distance": "far"}}, "potential.influence_distance must be a finite number"),
+        ({"output": {"strobe_poses": 1}}, "output.strobe_poses must be >= 2, got 1"),
+        ({"output": {"figures": "S"}}, "output.figures must be a list of names among strobe, S, clearance, error"),
+        # unknown keys, with a suggestion
+        ({"robot": {**BASE["robot"], "geometyr": "mesh"}},
+         "unknown key 'robot.geometyr' (did you mean 'robot.geometry'?)"),
+        ({"path": {**BASE["path"], "duraton": 1.0}}, "unknown key 'path.duraton' (did you mean 'path.duration'?)"),
+        ({"timing": {"dt": 0.01, "fram": 0.05}}, "unknown key 'timing.fram' (did you mean 'timing.frame'?)"),
+        ({"potential": {"gian": 0.5}}, "unknown key 'potential.gian' (did you mean 'potential.gain'?)"),
+        ({"output": {"gifs": True}}, "unknown key 'output.gifs' (did you mean 'output.gif'?)"),
+        ({"obstacles": [{"shape": "sphere", "radius": 0.1, "motion": {"type": "static", "positon": [1, 1]}}]},
+         "unknown key 'obstacles[0].motion.positon' (did you mean 'obstacles[0].motion.position'?); valid keys in "
+         "obstacles[0].motion (type = 'static'): type, position, rpy"),
+        # a wrong type for a whole section
+        ({"timing": 0.01}, "timing must be a table, got 0.01"),
+        ({"obstacles": {"shape": "sphere"}}, "obstacles must be a list of tables, got {'shape': 'sphere'}"),
+    ],
+)
+def test_every_section_names_the_key_the_value_and_the_choices(sections: dict[str, Any], expected: str) -> None:
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict(doc(**sections))
+    assert expected in str(info.value)
+    assert not isinstance(info.value, pydantic.ValidationError)
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("gain", 0.0), ("gradient_gain", [1.0, -1.0]), ("feedback_gain", -1), ("singular_threshold", 0),
+     ("velocity_scale", 1.5), ("preview_time", "5"), ("weights", [0.5, 0.6]), ("previews", 0), ("population", 2),
+     ("elite", 0), ("top_k", 1.0), ("fd_step", float("inf")), ("with_gradient", "yes")],
+)
+def test_controller_keys_obey_the_same_rule_in_a_file_and_in_the_api(key: str, value: object) -> None:
+    """The ``[controller]`` table is made from ControllerParams' fields: one bound, one message."""
+    with pytest.raises(ParameterError) as api:
+        ControllerParams(**{key: value})
+    with pytest.raises(ScenarioError) as file:
+        scenario_from_dict(doc(controller={key: value}))
+    assert str(file.value) == f"scenario: controller.{api.value}"
 
 
 def test_missing_robot_and_missing_source() -> None:
@@ -170,7 +261,7 @@ def test_missing_robot_and_missing_source() -> None:
         scenario_from_dict(doc(robot={"q0": [0, 0, 0, 0]}))
     with pytest.raises(ScenarioError, match=r"missing section \[path\]"):
         scenario_from_dict(doc(path=None))
-    with pytest.raises(ScenarioError, match=r"exactly one of robot\.q0"):
+    with pytest.raises(ScenarioError, match=r"robot needs exactly one of q0 \[rad\] or q0_deg \[deg\]"):
         scenario_from_dict(doc(robot={"source": "planar4"}))
 
 

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from previewctl.cli.common import Commands, ProgressBar
+from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
@@ -21,7 +22,7 @@ def add_parser(commands: Commands) -> None:
         "(run.npz, summary.json) and the figures go to --out.",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
-    run.add_argument("--controller", choices=("none", "gradient", "single", "multi", "reach"),
+    run.add_argument("--controller", choices=CONTROLLER_NAMES,
                      help="override the scenario's controller")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")

@@ -22,6 +22,9 @@ current configuration clear of an obstacle meanwhile.
 The preview modes get their imaginary arms ``q̃`` from a 1-step GA (:mod:`previewctl.search.ga`), one per
 preview time, which runs one generation per camera frame.
 
-Build one with :func:`previewctl.control.factory.make_controller`; eq. 19 itself is in
-:mod:`previewctl.control.tracking`.
+Build one with :func:`previewctl.control.factory.make_controller` and step it from your own loop,
+``qdot = ctrl.step(q, t)`` (:class:`previewctl.control.controller.Controller`: the kinematics, the
+camera frames and the last cycle's :class:`~previewctl.control.base.ControlInfo`). Inside, each mode is a
+*control law* with ``command(t, q, state)`` (:mod:`previewctl.control.base`), built by
+:func:`~previewctl.control.factory.build_law`; eq. 19 itself is in :mod:`previewctl.control.tracking`.
 """

@@ -1,86 +1,76 @@
-"""Controller names and parameters: gains, preview times and weights (eqs. 20-21), GA settings."""
+"""Controller names and parameters: gains, preview times and weights (eqs. 20-21), GA settings.
+
+The one list of controller names is :data:`ControllerName`; :data:`CONTROLLER_NAMES` and
+:data:`PREVIEW_MODES` are read from it. The bounds of every parameter are the annotations of
+:class:`ControllerParams`' fields: the scenario file's ``[controller]`` table is made from them
+(:mod:`previewctl.sim.schema`), and the GA settings are :class:`~previewctl.search.ga.GAOptions`'.
+"""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any, Literal, get_args
 
-from previewctl.errors import ConfigurationError
+from pydantic import AfterValidator, BeforeValidator, Field
 
-CONTROLLER_NAMES: tuple[str, ...] = ("none", "gradient", "single", "multi", "reach")
-PREVIEW_MODES: tuple[str, ...] = ("single", "multi", "reach")
+from previewctl.errors import ParameterError
+from previewctl.search.ga import GAOptions, Population
+from previewctl.validation import (
+    Checked,
+    Count,
+    Finite,
+    Flag,
+    NonNegative,
+    Positive,
+    Text,
+    interval,
+    invalid,
+    table,
+    validate,
+)
+
+PreviewMode = Literal["single", "multi", "reach"]
+"""The controllers that steer the arm towards imaginary arms at future times."""
+ControllerName = Literal["none", "gradient", PreviewMode]
+"""Every controller: ``none`` (eq. 19 alone), ``gradient``, and the preview modes."""
+CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
+PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""
 
 _WEIGHT_SUM_TOL = 1e-9
 
 
-def check_preview_weights(weights: object, where: str = "weights") -> tuple[float, ...]:
-    """Validate the multi-preview weights ``k_i`` of eq. 21.
-
-    Args:
-        weights: a sequence of numbers.
-        where: the name used in messages (e.g. ``"controller.weights"``).
-
-    Returns:
-        The weights as a tuple of floats.
-
-    Raises:
-        ConfigurationError: not a non-empty list of numbers, some ``k_i`` outside ``(0, 1)`` or
-            ``Σ k_i ≠ 1`` (to 1e-9); the message names the value.
-    """
-    if (
-        isinstance(weights, (str, bytes))
-        or not isinstance(weights, Sequence)
-        or not weights
-        or not all(isinstance(k, (int, float)) and not isinstance(k, bool) for k in weights)
-    ):
-        raise ConfigurationError(f"{where} must be a non-empty list of numbers k_i, got {weights!r}")
-    values = tuple(float(k) for k in weights)
-    for i, k in enumerate(values, start=1):
-        if not (math.isfinite(k) and 0.0 < k < 1.0):
-            hint = "; for one preview use the 'single' controller" if len(values) == 1 else ""
-            raise ConfigurationError(f"{where} = {list(values)}: k_{i} = {k!r} must satisfy 0 < k_i < 1{hint}")
-    total = math.fsum(values)
+def _preview_weights(weights: tuple[float, ...]) -> tuple[float, ...]:
+    """The rule of eq. 21: ``0 < k_i < 1`` and ``Σ k_i = 1`` (to 1e-9)."""
+    if not weights:
+        raise invalid("must be a non-empty list of numbers k_i, got []")
+    for i, k in enumerate(weights, start=1):
+        if not 0.0 < k < 1.0:
+            hint = "; for one preview use the 'single' controller" if len(weights) == 1 else ""
+            raise invalid("= {weights}: k_{i} = {k} must satisfy 0 < k_i < 1{hint}", weights=list(weights), i=i,
+                          k=repr(k), hint=hint)
+    total = math.fsum(weights)
     if abs(total - 1.0) > _WEIGHT_SUM_TOL:
-        raise ConfigurationError(f"{where} = {list(values)}: the k_i must sum to 1, they sum to {total!r}")
-    return values
+        raise invalid("= {weights}: the k_i must sum to 1, they sum to {total}", weights=list(weights),
+                      total=repr(total))
+    return weights
 
 
-def _gain_tuple(value: object, where: str) -> tuple[float, ...]:
-    """A positive scalar gain as ``(g,)`` or a per-joint gain vector as a tuple."""
-    items = (value,) if isinstance(value, (int, float)) and not isinstance(value, bool) else value
-    if (
-        isinstance(items, (str, bytes))
-        or not isinstance(items, Sequence)
-        or not items
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items)
-    ):
-        raise ConfigurationError(f"{where} must be a positive number or a list of positive numbers, got {value!r}")
-    out = tuple(float(v) for v in items)
-    if not all(math.isfinite(v) and v > 0 for v in out):
-        raise ConfigurationError(f"{where} must be positive and finite, got {value!r}")
-    return out
+def _one_or_many(value: object) -> object:
+    """A single number ``g`` means ``(g,)``."""
+    return (value,) if isinstance(value, (int, float)) and not isinstance(value, bool) else value
 
 
-def _positive(value: object, where: str, *, allow_zero: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigurationError(f"{where} must be a finite number, got {value!r}")
-    if value < 0 or (value == 0 and not allow_zero):
-        raise ConfigurationError(f"{where} must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
-    return float(value)
-
-
-def _count(value: object, where: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ConfigurationError(f"{where} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+Gains = Annotated[tuple[Positive, ...], BeforeValidator(_one_or_many), Field(min_length=1)]
+"""One positive gain for every joint, or one per joint velocity."""
+PreviewWeights = Annotated[tuple[Finite, ...], AfterValidator(_preview_weights)]
+"""The ``k_i`` of eq. 21."""
 
 
 @dataclass(frozen=True)
-class ControllerParams:
+class ControllerParams(Checked):
     """Parameters of every controller (each mode reads the ones it needs).
 
     Attributes:
@@ -98,7 +88,7 @@ class ControllerParams:
         elite: GA individuals copied unchanged to the next generation.
         top_k: distinct peaks the GA keeps.
         fd_step: finite-difference step of ``∇S`` [rad].
-        ga_options: further keyword arguments for the GA, as ``(name, value)`` pairs.
+        ga_options: further :class:`~previewctl.search.ga.GAOptions` fields, as ``(name, value)`` pairs.
         with_gradient: ``single``/``multi`` also add ``K_g ∇S`` (``gradient_gain``) to ``v``.
         coherent: ``single``/``multi`` keep each imaginary arm on one tracked peak of the arm's own elbow
             branch and ramp the pull in (:mod:`previewctl.control.peaks`); ``False`` is the paper's
@@ -108,59 +98,40 @@ class ControllerParams:
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
     """
 
-    gain: tuple[float, ...] = (1.0,)
-    gradient_gain: tuple[float, ...] = (1e-4,)
-    feedback_gain: float = 5.0
-    damping: float = 0.05
-    singular_threshold: float = 0.05
-    velocity_scale: float = 1.0
-    preview_time: float = 1.0
-    weights: tuple[float, ...] = PAPER_WEIGHTS
-    previews: int = 3
-    population: int = 64
-    elite: int = 2
-    top_k: int = 4
-    fd_step: float = 1e-4
-    ga_options: tuple[tuple[str, Any], ...] = field(default=())
-    with_gradient: bool = False
-    coherent: bool = True
-    hysteresis: float = 0.2
-    settle_frames: int = 15
-    track_radius: float = 0.5
+    gain: Gains = (1.0,)
+    gradient_gain: Gains = (1e-4,)
+    feedback_gain: NonNegative = 5.0
+    damping: NonNegative = 0.05
+    singular_threshold: Positive = 0.05
+    velocity_scale: Annotated[Finite, interval(0, 1, "(]")] = 1.0
+    preview_time: Positive = 1.0
+    weights: PreviewWeights = PAPER_WEIGHTS
+    previews: Count = 3
+    population: Population = 64
+    elite: Count = 2
+    top_k: Count = 4
+    fd_step: Positive = 1e-4
+    ga_options: tuple[tuple[Text, Any], ...] = field(default=())
+    with_gradient: Flag = False
+    coherent: Flag = True
+    hysteresis: NonNegative = 0.2
+    settle_frames: Count = 15
+    track_radius: Positive = 0.5
 
-    def __post_init__(self) -> None:
-        """Validate every field.
-
-        Raises:
-            ConfigurationError: a bad value; the message names the field and the value.
-        """
-        object.__setattr__(self, "gain", _gain_tuple(self.gain, "gain"))
-        object.__setattr__(self, "gradient_gain", _gain_tuple(self.gradient_gain, "gradient_gain"))
-        _positive(self.feedback_gain, "feedback_gain", allow_zero=True)
-        _positive(self.damping, "damping", allow_zero=True)
-        _positive(self.singular_threshold, "singular_threshold")
-        if not (_positive(self.velocity_scale, "velocity_scale") <= 1.0):
-            raise ConfigurationError(f"velocity_scale must lie in (0, 1], got {self.velocity_scale!r}")
-        _positive(self.preview_time, "preview_time")
-        object.__setattr__(self, "weights", check_preview_weights(self.weights, "weights"))
-        _count(self.previews, "previews", 1)
-        _count(self.population, "population", 2)
-        _count(self.elite, "elite", 0)
-        _count(self.top_k, "top_k", 1)
-        _positive(self.fd_step, "fd_step")
-        if not isinstance(self.with_gradient, bool):
-            raise ConfigurationError(f"with_gradient must be true or false, got {self.with_gradient!r}")
-        if not isinstance(self.coherent, bool):
-            raise ConfigurationError(f"coherent must be true or false, got {self.coherent!r}")
-        _positive(self.hysteresis, "hysteresis", allow_zero=True)
-        _count(self.settle_frames, "settle_frames", 1)
-        _positive(self.track_radius, "track_radius")
-        if self.elite >= self.population:
-            raise ConfigurationError(f"elite ({self.elite}) must be smaller than population ({self.population})")
+    def check(self) -> None:
+        """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
+        ``elite + top_k < population``)."""
+        more = validate(GA_SETTINGS, dict(self.ga_options), ParameterError, where="ga_options")
+        GAOptions(population=self.population, elite=self.elite, top_k=self.top_k,
+                  **more.model_dump(exclude_unset=True))
 
     def preview_weights(self, mode: str) -> tuple[float, ...]:
         """The ``k_i`` used by a preview mode: ``(1,)`` for ``single`` (eq. 20), ``weights`` otherwise."""
         return (1.0,) if mode == "single" else self.weights
+
+
+GA_SETTINGS = table("ga", GAOptions, exclude=("population", "elite", "top_k"))
+"""The GA settings besides ``population``, ``elite`` and ``top_k``: ``ga_options``, ``[controller.ga]``."""
 
 
 @dataclass(frozen=True)
@@ -174,7 +145,6 @@ class ControllerSpec:
         """Check the name.
 
         Raises:
-            ConfigurationError: unknown controller name (lists the valid ones).
+            ParameterError: unknown controller name (lists the valid ones and a near miss).
         """
-        if self.name not in CONTROLLER_NAMES:
-            raise ConfigurationError(f"unknown controller {self.name!r}; valid: {', '.join(CONTROLLER_NAMES)}")
+        validate(ControllerName, self.name, ParameterError, root="controller")

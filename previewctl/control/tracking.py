@@ -40,7 +40,7 @@ import pinocchio as pin
 
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.params import ControllerParams
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ParameterError
 from previewctl.index.amsi import null_space_projector
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -196,6 +196,7 @@ def track(
     info = ControlInfo(
         desired_position=r_d,
         desired_velocity=rdot_d,
+        hand_position=tip,
         task_error=error,
         v=np.array(v, dtype=float),
         qdot_task=qdot_task,
@@ -205,6 +206,8 @@ def track(
         scale=scale,
         clamped=clamped,
         damping=lam,
+        dt=state.dt,
+        frame_due=state.frame_due,
         targets=targets,
         target_amsip=target_amsip,
     )
@@ -212,10 +215,15 @@ def track(
 
 
 def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
+    """A gain (one number or one per joint velocity) as ``(nv,)`` [1/s]; ``where`` names it in messages.
+
+    Raises:
+        ParameterError: neither 1 nor ``nv`` entries.
+    """
     if len(gain) == 1:
         return np.full(nv, gain[0])
     if len(gain) != nv:
-        raise ConfigurationError(f"{where} has {len(gain)} entries; the robot has {nv} joint velocities")
+        raise ParameterError(f"{where} has {len(gain)} entries; give one number or {nv} (one per joint velocity)")
     return np.array(gain)
 
 

@@ -21,14 +21,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from math import gamma, pi
+from typing import Annotated
 
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ParameterError
 from previewctl.kinematics import Kinematics, kinematics
 from previewctl.robot.model import Robot
 from previewctl.types import Array
+from previewctl.validation import Checked, Finite, NonNegative, Positive, interval
 
 
 def unit_ball_volume(p: int) -> float:
@@ -37,7 +39,7 @@ def unit_ball_volume(p: int) -> float:
 
 
 @dataclass(frozen=True)
-class IndexParams:
+class IndexParams(Checked):
     """Parameters of the AMSI.
 
     Attributes:
@@ -47,22 +49,16 @@ class IndexParams:
         rank_tolerance: relative singular-value threshold for ``J_n^+`` and numerical ranks.
     """
 
-    weights: tuple[float, ...] | None = None
-    length_unit: float = 0.01
-    rank_tolerance: float = 1e-9
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.length_unit) and self.length_unit > 0):
-            raise ConfigurationError(f"length_unit must be a positive length [m], got {self.length_unit!r}")
-        if not (0 < self.rank_tolerance < 1):
-            raise ConfigurationError(f"rank_tolerance must lie in (0, 1), got {self.rank_tolerance!r}")
+    weights: tuple[NonNegative, ...] | None = None
+    length_unit: Positive = 0.01
+    rank_tolerance: Annotated[Finite, interval(0, 1, "()")] = 1e-9
 
     def weight_vector(self, count: int) -> Array:
         """The weights ``a_i`` as an array of ``count`` entries."""
         if self.weights is None:
             return np.ones(count)
         if len(self.weights) != count:
-            raise ConfigurationError(f"weights has {len(self.weights)} entries; the robot has {count} control points")
+            raise ParameterError(f"weights has {len(self.weights)} entries; the robot has {count} control points")
         return np.array(self.weights, dtype=float)
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ParameterError
 from previewctl.index.amsi import IndexParams, amsi_from_kinematics
 from previewctl.index.potential import Potential
 from previewctl.kinematics import kinematics, kinematics_reader
@@ -35,6 +35,7 @@ from previewctl.scene.clearance import Clearance
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array
+from previewctl.validation import validate
 
 Method = Literal["auto", "planar", "general"]
 
@@ -82,8 +83,7 @@ class Evaluator:
         potential: Potential | None = None,
         method: Method = "auto",
     ) -> None:
-        if method not in ("auto", "planar", "general"):
-            raise ConfigurationError(f"method must be 'auto', 'planar' or 'general', got {method!r}")
+        validate(Method, method, ParameterError, root="method")
         self.robot, self.scene = robot, scene or Scene()
         self.index, self.potential = index or IndexParams(), potential or Potential()
         self.method: Method = method
@@ -114,7 +114,7 @@ class Evaluator:
         """Whether a call at time ``t`` [s] takes the vectorised planar path."""
         possible = self._planar_kernels(t) is not None
         if self.method == "planar" and not possible:
-            raise ConfigurationError(
+            raise ParameterError(
                 f"the planar path needs a planar robot and sphere/capsule/box/vertical-cylinder/halfspace "
                 f"obstacles straddling its plane; robot {self.robot.name!r} with obstacles "
                 f"{list(self.scene.names)} does not qualify"

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.errors import ConfigurationError
 from previewctl.types import Array
+from previewctl.validation import Checked, Finite, Negative, Positive, interval
 
 
 @dataclass(frozen=True)
-class Potential:
+class Potential(Checked):
     """The obstacle potential ``U`` (see the module docstring).
 
     Attributes:
@@ -21,17 +22,9 @@ class Potential:
         collision_value: the (negative) S of a colliding configuration.
     """
 
-    influence_distance: float = 0.15
-    gain: float = 1.0
-    collision_value: float = -1.0
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.influence_distance) and self.influence_distance > 0):
-            raise ConfigurationError(f"influence_distance must be > 0 [m], got {self.influence_distance!r}")
-        if not (0 < self.gain <= 1):
-            raise ConfigurationError(f"gain must lie in (0, 1], got {self.gain!r}")
-        if not self.collision_value < 0:
-            raise ConfigurationError(f"collision_value must be negative, got {self.collision_value!r}")
+    influence_distance: Positive = 0.15
+    gain: Annotated[Finite, interval(0, 1, "(]")] = 1.0
+    collision_value: Negative = -1.0
 
     def apply(self, amsi: Array, link_distances: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
         """``(S, U, collision)`` from ``amsi`` ``(B,)`` and ``link_distances`` ``(B, L)`` [m]."""

@@ -43,6 +43,7 @@ from previewctl.planar.kernels import (
     segment_distance,
 )
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Obstacle, Sphere
+from previewctl.validation import rotation_matrix
 
 # --------------------------------------------------------------------------------------- checks
 
@@ -78,10 +79,7 @@ def _length(value: float, name: str) -> float:
 
 
 def _rotation(value: npt.ArrayLike) -> FloatArray:
-    rot = np.asarray(value, dtype=np.float64)
-    if rot.shape != (3, 3) or not np.all(np.isfinite(rot)) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6):
-        raise SceneError(f"rotation must be a 3x3 orthonormal matrix; got {value!r}")
-    return rot
+    return rotation_matrix(value, "rotation", SceneError)
 
 
 def _z_axis_vertical(rotation: FloatArray, atol: float) -> bool:

@@ -1,16 +1,24 @@
-"""Obstacles, scenes that move, and arm-obstacle distances through Pinocchio's geometry layer (Coal).
+"""The scene file format: obstacle tables (:mod:`previewctl.scene.schema`) into obstacles and motions.
 
-A :class:`Scene` is a tuple of :class:`Obstacle`, each a Coal shape plus a :mod:`previewctl.scene.motion`
-(static by default), so the scene can be asked for its state at any time. :class:`Clearance` puts
-the robot's guarded geometry and the obstacles into one ``pin.GeometryModel`` with one collision pair
-per (guarded geometry, obstacle); ``pin.computeDistances`` then does all pairs in one C++ call.
+A scene file holds ``[[obstacles]]`` tables (the same tables as a scenario file's), e.g.::
+
+    [[obstacles]]
+    name = "ball"
+    shape = "sphere"
+    radius = 0.1
+    position = [0.4, 0.5, 0.0]
+    # or, moving: motion = { type = "periodic", center = [0.4, 0, 0.3], amplitude = [0, 0.1, 0], period = 4.0 }
+
+Every error is a :class:`~previewctl.errors.SceneError` naming the bad key (``obstacles[1].motion.period``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -19,112 +27,82 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 from previewctl.errors import SceneError
-from previewctl.scene.motion import Static, motion_from_dict, rpy_to_matrix
-from previewctl.scene.shapes import (
-    Box,
-    Capsule,
-    Cylinder,
-    Halfspace,
-    Mesh,
-    Obstacle,
-    Plane,
-    Scene,
-    Shape,
-    Sphere,
-    positive,
-    vector,
-)
-
-_SHAPE_KEYS: dict[str, tuple[str, ...]] = {
-    "sphere": ("radius",),
-    "box": ("size",),
-    "capsule": ("radius", "length"),
-    "cylinder": ("radius", "length"),
-    "halfspace": ("normal", "offset"),
-    "plane": ("normal", "offset"),
-    "mesh": ("path", "scale", "convex"),
-}
-_PLACEMENT_KEYS = ("position", "rpy", "motion")
+from previewctl.scene.motion import ConstantVelocity, Motion, Periodic, Static, Waypoints, rpy_to_matrix
+from previewctl.scene.schema import SHAPES, MotionTable, SceneFile
+from previewctl.scene.shapes import Obstacle, Scene
+from previewctl.validation import validate
 
 
-def _shape_from_dict(where: str, kind: str, spec: Mapping[str, object], base_dir: Path) -> Shape:
-    if kind == "sphere":
-        return Sphere(positive(f"{where}.radius", spec.get("radius")))
-    if kind == "box":
-        size = vector(f"{where}.size", spec.get("size"))
-        for axis, value in zip("xyz", size, strict=True):
-            positive(f"{where}.size.{axis}", value)
-        return Box(size)  # type: ignore[arg-type]
-    if kind in ("capsule", "cylinder"):
-        radius = positive(f"{where}.radius", spec.get("radius"))
-        length = positive(f"{where}.length", spec.get("length"))
-        return Capsule(radius, length) if kind == "capsule" else Cylinder(radius, length)
-    if kind in ("halfspace", "plane"):
-        normal = np.array(vector(f"{where}.normal", spec.get("normal")))
-        if np.linalg.norm(normal) < 1e-12:
-            raise SceneError(f"{where}.normal must be non-zero, got {spec.get('normal')!r}")
-        offset = spec.get("offset", 0.0)
-        if isinstance(offset, bool) or not isinstance(offset, (int, float)):
-            raise SceneError(f"{where}.offset must be a number [m], got {offset!r}")
-        unit = tuple(float(v) for v in normal / np.linalg.norm(normal))
-        return (Halfspace if kind == "halfspace" else Plane)(unit, float(offset))  # type: ignore[arg-type]
-    path = spec.get("path")
-    if not isinstance(path, str):
-        raise SceneError(f"{where}.path must be a file name, got {path!r}")
-    resolved = Path(path) if Path(path).is_absolute() else base_dir / path
-    if not resolved.is_file():
-        raise SceneError(f"{where}.path: mesh file {str(resolved)!r} does not exist")
-    scale = spec.get("scale", 1.0)
-    scale3 = (float(scale),) * 3 if isinstance(scale, (int, float)) else vector(f"{where}.scale", scale)
-    convex = spec.get("convex", False)
-    if not isinstance(convex, bool):
-        raise SceneError(f"{where}.convex must be true or false, got {convex!r}")
-    return Mesh(str(resolved), scale3, convex)  # type: ignore[arg-type]
+def motion_from_table(spec: Any, where: str) -> Motion:
+    """The motion a validated motion table describes; ``where`` (``"obstacles[2].motion"``) prefixes messages.
 
-
-def obstacle_from_dict(spec: Mapping[str, object], where: str, base_dir: Path = Path(".")) -> Obstacle:
-    """Build one obstacle from a TOML table.
-
-    Example: ``{"name": "ball", "shape": "sphere", "radius": 0.1, "position": [0.4, 0.5, 0]}``; a
-    moving one has a ``motion`` sub-table instead of ``position``/``rpy`` (see :mod:`previewctl.scene.motion`).
+    Raises:
+        SceneError: a value the motion rejects (e.g. a period <= 0, times not increasing).
     """
-    if not isinstance(spec, Mapping):
-        raise SceneError(f"{where} must be a table, got {spec!r}")
-    kind = spec.get("shape")
-    if kind not in _SHAPE_KEYS:
-        raise SceneError(f"{where}.shape is {kind!r}; valid: {', '.join(_SHAPE_KEYS)}")
-    valid = ("name", "shape", *_SHAPE_KEYS[str(kind)], *_PLACEMENT_KEYS)
-    for key in spec:
-        if key not in valid:
-            raise SceneError(f"{where}: unknown key {key!r} for a {kind}; valid: {', '.join(valid)}")
-    name = spec.get("name", where)
-    if not isinstance(name, str) or not name:
-        raise SceneError(f"{where}.name must be a non-empty string, got {name!r}")
-    shape = _shape_from_dict(where, str(kind), spec, base_dir)
-    if "motion" in spec:
-        if "position" in spec or "rpy" in spec:
-            raise SceneError(f"{where}: give either 'motion' or 'position'/'rpy', not both")
-        motion_spec = spec["motion"]
-        if not isinstance(motion_spec, Mapping):
-            raise SceneError(f"{where}.motion must be a table, got {motion_spec!r}")
-        motion = motion_from_dict(motion_spec, f"{where}.motion")
+    rotation = rpy_to_matrix(spec.rpy)
+    try:
+        if spec.type == "static":
+            return Static(spec.position, rotation)
+        if spec.type == "constant_velocity":
+            return ConstantVelocity(spec.position, spec.velocity, rotation, spec.start_time)
+        if spec.type == "waypoints":
+            return Waypoints(spec.times, spec.positions, rotation, spec.loop)
+        return Periodic(spec.center, spec.amplitude, spec.period, spec.phase, rotation)
+    except SceneError as exc:  # the motions' messages start with the key, e.g. "period must be > 0"
+        raise SceneError(f"{where}.{exc}") from exc
+
+
+def motion_from_dict(spec: Mapping[str, object], where: str) -> Motion:
+    """Build a motion from a TOML-like table, e.g. ``{"type": "static", "position": [0.3, 0.2, 0.0]}``.
+
+    Keys per ``type`` (:class:`~previewctl.scene.schema.StaticTable` and its siblings; ``rpy``
+    [rad] is optional for each): ``static``: ``position``; ``constant_velocity``: ``position``,
+    ``velocity``, ``start_time = 0``; ``waypoints``: ``times``, ``positions``, ``loop = false``;
+    ``periodic``: ``center``, ``amplitude``, ``period``, ``phase = 0``. Vectors may have 2 entries
+    (planar scenes; ``z = 0``).
+
+    Args:
+        spec: the table.
+        where: its dotted key, the prefix of every message (e.g. ``"obstacles[2].motion"``).
+
+    Raises:
+        SceneError: an unknown or missing ``type`` or key, a value of the wrong type or a bad value;
+            the message names ``where.key``, the value and the valid choices.
+    """
+    return motion_from_table(validate(MotionTable, spec, SceneError, where=where), where)
+
+
+def obstacle_from_table(spec: Any, where: str, base_dir: Path) -> Obstacle:
+    """The obstacle a validated obstacle table describes (relative mesh paths resolve against ``base_dir``)."""
+    kind = SHAPES[spec.shape]
+    values = {f.name: getattr(spec, f.name) for f in dataclasses.fields(kind)}
+    if spec.shape in ("halfspace", "plane"):
+        normal = np.array(spec.normal)
+        values["normal"] = tuple(float(v) for v in normal / np.linalg.norm(normal))
+    if spec.shape == "mesh":
+        resolved = Path(spec.path) if Path(spec.path).is_absolute() else base_dir / spec.path
+        if not resolved.is_file():
+            raise SceneError(f"{where}.path: mesh file {str(resolved)!r} does not exist")
+        values["path"] = str(resolved)
+    if spec.motion is not None:
+        motion = motion_from_table(spec.motion, f"{where}.motion")
     else:
-        raw = spec.get("position", (0.0, 0.0, 0.0))
-        if isinstance(raw, (list, tuple)) and len(raw) == 2:
-            raw = (*raw, 0.0)
-        position = np.array(vector(f"{where}.position", raw))
-        rotation = rpy_to_matrix(np.array(vector(f"{where}.rpy", spec.get("rpy", (0.0, 0.0, 0.0)))))
-        motion = Static(position, rotation)
-    return Obstacle(name, shape, motion)
+        motion = Static(np.array(spec.position), rpy_to_matrix(spec.rpy))
+    return Obstacle(spec.name or where, kind(**values), motion)
 
 
-def scene_from_dict(
-    obstacles: Sequence[Mapping[str, object]], where: str = "obstacles", base_dir: Path = Path(".")
-) -> Scene:
-    """Build a scene from a list of obstacle tables (``[[obstacles]]`` in TOML)."""
-    if not isinstance(obstacles, (list, tuple)):
-        raise SceneError(f"{where} must be a list of tables ([[{where}]]), got {obstacles!r}")
-    return Scene(tuple(obstacle_from_dict(o, f"{where}[{i}]", base_dir) for i, o in enumerate(obstacles)))
+def scene_from_tables(tables: Sequence[Any], base_dir: Path = Path(".")) -> Scene:
+    """The scene of validated ``[[obstacles]]`` tables."""
+    return Scene(tuple(obstacle_from_table(t, f"obstacles[{i}]", base_dir) for i, t in enumerate(tables)))
+
+
+def scene_from_dict(obstacles: Sequence[Mapping[str, object]], base_dir: Path = Path(".")) -> Scene:
+    """Build a scene from a list of obstacle tables (``[[obstacles]]`` in TOML).
+
+    Raises:
+        SceneError: a bad table, named by its dotted key (``obstacles[1].radius``).
+    """
+    return scene_from_tables(validate(SceneFile, {"obstacles": obstacles}, SceneError).obstacles, base_dir)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -140,7 +118,5 @@ def load_scene(path: str | Path) -> Scene:
         data = tomllib.loads(file.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"scene file {str(file)!r} is not valid TOML: {exc}") from exc
-    unknown = [k for k in data if k != "obstacles"]
-    if unknown:
-        raise SceneError(f"scene file {str(file)!r}: unknown key {unknown[0]!r}; valid: obstacles")
-    return scene_from_dict(data.get("obstacles", []), "obstacles", file.parent)
+    doc = validate(SceneFile, data, SceneError, prefix=f"scene file {str(file)!r}: ", root="the scene")
+    return scene_from_tables(doc.obstacles, file.parent)

@@ -5,17 +5,17 @@ Every motion gives the obstacle's placement at time ``t`` [s] as ``(position (3,
 velocities, amplitudes, centres) may be given with 2 entries for planar scenes, in which case
 ``z = 0`` is appended.
 
-:func:`motion_from_dict` builds a motion from a TOML-like table, e.g.
+:func:`previewctl.scene.file.motion_from_dict` builds a motion from a TOML-like table, e.g.
 ``{"type": "periodic", "center": [0.4, 0, 0.3], "amplitude": [0, 0.1, 0], "period": 4.0}``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from previewctl.errors import SceneError
@@ -335,7 +335,7 @@ class Periodic(_Placed):
 
 
 def rpy_to_matrix(rpy: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix from roll, pitch, yaw: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+    """Rotation matrix from roll, pitch, yaw: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (``pin.rpy.rpyToMatrix``).
 
     Args:
         rpy: ``[roll, pitch, yaw]`` [rad].
@@ -350,189 +350,5 @@ def rpy_to_matrix(rpy: ArrayLike) -> NDArray[np.float64]:
     if angles.shape != (3,):
         raise SceneError(f"rpy must be [roll, pitch, yaw] (3 numbers) [rad], got shape {angles.shape}: {show(angles)}")
     _check_finite(angles, "rpy")
-    (cr, cp, cy), (sr, sp, sy) = np.cos(angles), np.sin(angles)
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    matrix: NDArray[np.float64] = rz @ ry @ rx
+    matrix: NDArray[np.float64] = pin.rpy.rpyToMatrix(angles)
     return matrix
-
-
-# ----------------------------------------------------------------------------- from tables
-
-
-def _is_number(value: object) -> bool:
-    """Whether ``value`` is a real number as a table would hold it (bools excluded)."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-
-
-def _table_number(value: object, name: str) -> float:
-    """A finite real number from a table entry; ``name`` is its location."""
-    if not _is_number(value):
-        raise SceneError(f"{name} must be a number, got {show(value)}")
-    number = float(value)  # type: ignore[arg-type]
-    if not np.isfinite(number):
-        raise SceneError(f"{name} must be finite, got {number!r}")
-    return number
-
-
-def _table_vector(value: object, name: str, sizes: tuple[int, ...] = (2, 3)) -> list[float]:
-    """A list of finite numbers with a length in ``sizes`` from a table entry."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    wanted = " or ".join(str(n) for n in sizes)
-    if (
-        not isinstance(value, Sequence)
-        or isinstance(value, (str, bytes))
-        or len(value) not in sizes
-        or not all(_is_number(x) for x in value)
-    ):
-        raise SceneError(f"{name} must be a list of {wanted} numbers, got {show(value)}")
-    numbers = [float(x) for x in value]
-    if not all(np.isfinite(numbers)):
-        raise SceneError(f"{name} must be finite, got {show(value)}")
-    return numbers
-
-
-def _table_vectors(value: object, name: str) -> list[list[float]]:
-    """A non-empty list of 2- or 3-vectors from a table entry."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or not value:
-        raise SceneError(f"{name} must be a non-empty list of [x, y] or [x, y, z] positions, got {show(value)}")
-    return [_table_vector(row, f"{name}[{i}]") for i, row in enumerate(value)]
-
-
-def _table_times(value: object, name: str) -> list[float]:
-    """A non-empty list of finite times from a table entry."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if (
-        not isinstance(value, Sequence)
-        or isinstance(value, (str, bytes))
-        or not value
-        or not all(_is_number(x) for x in value)
-    ):
-        raise SceneError(f"{name} must be a non-empty list of numbers [s], got {show(value)}")
-    return [_table_number(x, f"{name}[{i}]") for i, x in enumerate(value)]
-
-
-def _table_bool(value: object, name: str) -> bool:
-    """A boolean from a table entry."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise SceneError(f"{name} must be true or false, got {show(value)}")
-    return bool(value)
-
-
-_Parsed = tuple[type, dict[str, object]]
-"""A motion class and the validated keyword arguments (all but ``rotation``) for it."""
-_Parser = Callable[[Mapping[str, object], Callable[[str], str]], _Parsed]
-
-
-def _parse_static(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
-    """Constructor arguments (without rotation) of a ``static`` table."""
-    return Static, {"position": _table_vector(spec["position"], at("position"))}
-
-
-def _parse_constant_velocity(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
-    """Constructor arguments (without rotation) of a ``constant_velocity`` table."""
-    return ConstantVelocity, {
-        "position": _table_vector(spec["position"], at("position")),
-        "velocity": _table_vector(spec["velocity"], at("velocity")),
-        "start_time": _table_number(spec.get("start_time", 0.0), at("start_time")),
-    }
-
-
-def _parse_waypoints(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
-    """Constructor arguments (without rotation) of a ``waypoints`` table."""
-    times = _table_times(spec["times"], at("times"))
-    points = _table_vectors(spec["positions"], at("positions"))
-    if len(points) != len(times):
-        raise SceneError(
-            f"{at('positions')} must have one position per time: got {len(points)} positions "
-            f"for {len(times)} times {times}"
-        )
-    loop = _table_bool(spec.get("loop", False), at("loop"))
-    return Waypoints, {"times": times, "waypoints": points, "loop": loop}
-
-
-def _parse_periodic(spec: Mapping[str, object], at: Callable[[str], str]) -> _Parsed:
-    """Constructor arguments (without rotation) of a ``periodic`` table."""
-    return Periodic, {
-        "center": _table_vector(spec["center"], at("center")),
-        "amplitude": _table_vector(spec["amplitude"], at("amplitude")),
-        "period": _table_number(spec["period"], at("period")),
-        "phase": _table_number(spec.get("phase", 0.0), at("phase")),
-    }
-
-
-# type -> (required keys, optional keys besides "type" and "rpy", parser)
-_TYPES: dict[str, tuple[tuple[str, ...], tuple[str, ...], _Parser]] = {
-    "static": (("position",), (), _parse_static),
-    "constant_velocity": (("position", "velocity"), ("start_time",), _parse_constant_velocity),
-    "waypoints": (("times", "positions"), ("loop",), _parse_waypoints),
-    "periodic": (("center", "amplitude", "period"), ("phase",), _parse_periodic),
-}
-
-MOTION_TYPES: tuple[str, ...] = tuple(_TYPES)
-"""Valid values of a motion table's ``type`` key."""
-
-
-def motion_from_dict(spec: Mapping[str, object], where: str) -> Motion:
-    """Build a motion from a TOML-like table.
-
-    Keys per ``type`` (``rpy = [roll, pitch, yaw]`` [rad] is optional for every type, and sets
-    the rotation ``Rz(yaw) Ry(pitch) Rx(roll)``; default identity):
-
-    * ``static``: ``position``.
-    * ``constant_velocity``: ``position``, ``velocity``; optional ``start_time`` (default 0).
-    * ``waypoints``: ``times``, ``positions``; optional ``loop`` (default false).
-    * ``periodic``: ``center``, ``amplitude``, ``period``; optional ``phase`` (default 0).
-
-    Vectors may have 2 entries (planar scenes); ``z = 0`` is appended.
-
-    Args:
-        spec: The table, e.g. ``{"type": "static", "position": [0.3, 0.2, 0.0]}``.
-        where: Location of the table, used as a prefix in messages, e.g.
-            ``"obstacles[2].motion"``.
-
-    Returns:
-        The motion.
-
-    Raises:
-        SceneError: On an unknown or missing ``type`` (lists the valid types), an unknown key
-            (lists the valid keys for the type), a missing key, a value of the wrong type or an
-            invalid value; the message names ``where.key`` and the value.
-    """
-    if not isinstance(spec, Mapping):
-        raise SceneError(f"{where} must be a table with a 'type' key, got {show(spec)}")
-    valid_types = ", ".join(repr(name) for name in MOTION_TYPES)
-    if "type" not in spec:
-        raise SceneError(f"{where}.type is missing; valid types: {valid_types}")
-    kind = spec["type"]
-    if not isinstance(kind, str) or kind not in _TYPES:
-        raise SceneError(f"{where}.type: unknown motion type {kind!r}; valid types: {valid_types}")
-    required, optional, parse = _TYPES[kind]
-    valid_keys = ("type", *required, *optional, "rpy")
-    for key in spec:
-        if key not in valid_keys:
-            raise SceneError(
-                f"{where}: unknown key {key!r} for motion type {kind!r}; valid keys: {', '.join(valid_keys)}"
-            )
-    for key in required:
-        if key not in spec:
-            raise SceneError(f"{where}.{key} is missing; motion type {kind!r} requires {', '.join(required)}")
-
-    def at(key: str) -> str:
-        return f"{where}.{key}"
-
-    rotation = np.eye(3)
-    if "rpy" in spec:
-        rotation = rpy_to_matrix(_table_vector(spec["rpy"], at("rpy"), sizes=(3,)))
-    cls, kwargs = parse(spec, at)
-    try:
-        motion: Motion = cls(**kwargs, rotation=rotation)
-    except SceneError as exc:
-        # Constructor messages start with the field name, e.g. "times must be strictly ...".
-        raise SceneError(f"{where}.{exc}") from exc
-    return motion

@@ -1,122 +1,124 @@
-"""Obstacle shapes (frozen, self-validating value objects), :class:`Obstacle` and :class:`Scene`."""
+"""Obstacle shapes (frozen, self-validating value objects), :class:`Obstacle` and :class:`Scene`.
+
+A shape's bounds are the annotations of its fields (checked by :func:`previewctl.validation.check_fields`);
+the scene file's obstacle tables are made from the same fields (:mod:`previewctl.scene.schema`).
+"""
 
 from __future__ import annotations
 
-import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated
 
 import coal
 import numpy as np
 import pinocchio as pin
+from pydantic import AfterValidator, BeforeValidator
 
-if sys.version_info >= (3, 11):
-    pass
-else:  # pragma: no cover - Python 3.10
-    pass
 from previewctl.errors import SceneError
 from previewctl.scene.motion import Motion, Static
+from previewctl.validation import Checked, Finite, Flag, Positive, Size, Text, invalid, show
 
 
-def positive(where: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise SceneError(f"{where} must be a positive number [m], got {value!r}")
-    return float(value)
+def _nonzero(vector: tuple[float, ...]) -> tuple[float, ...]:
+    if not any(vector):
+        raise invalid("must be non-zero, got {value}", value=show(list(vector)))
+    return vector
 
 
-def vector(where: str, value: object, size: int = 3) -> tuple[float, ...]:
-    if (
-        not isinstance(value, (list, tuple, np.ndarray))
-        or len(value) != size
-        or not all(isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) for v in value)
-        or not all(math.isfinite(float(v)) for v in value)
-    ):
-        raise SceneError(f"{where} must be a list of {size} finite numbers, got {value!r}")
-    return tuple(float(v) for v in value)
+def _triple(value: object) -> object:
+    """A scalar scale ``s`` means ``(s, s, s)``."""
+    return (value,) * 3 if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+
+
+Lengths3 = Annotated[tuple[Positive, Positive, Positive], Size(3)]
+"""Three positive lengths [m]."""
+Normal = Annotated[tuple[Finite, Finite, Finite], Size(3), AfterValidator(_nonzero)]
+"""A non-zero direction (3 numbers)."""
+Scale = Annotated[tuple[Finite, Finite, Finite], Size(3), BeforeValidator(_triple)]
+"""Scale factors along x, y, z (one number for all three)."""
+
+
+class _Shape(Checked):
+    """A shape checks its fields against their annotations when it is made."""
+
+    error = SceneError
 
 
 @dataclass(frozen=True)
-class Sphere:
+class Sphere(_Shape):
     """A ball of ``radius`` [m] centred on the obstacle's position."""
 
-    radius: float
-
+    radius: Positive
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Sphere(self.radius)
 
 
 @dataclass(frozen=True)
-class Box:
+class Box(_Shape):
     """A box of edge lengths ``size`` [m] (x, y, z in the obstacle frame), centred on its position."""
 
-    size: tuple[float, float, float]
-
+    size: Lengths3
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Box(*self.size)
 
 
 @dataclass(frozen=True)
-class Capsule:
+class Capsule(_Shape):
     """A capsule of ``radius`` [m] whose axis of ``length`` [m] is the obstacle frame's z axis."""
 
-    radius: float
-    length: float
-
+    radius: Positive
+    length: Positive
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Capsule(self.radius, self.length)
 
 
 @dataclass(frozen=True)
-class Cylinder:
+class Cylinder(_Shape):
     """A cylinder of ``radius`` [m] and ``length`` [m] along the obstacle frame's z axis."""
 
-    radius: float
-    length: float
-
+    radius: Positive
+    length: Positive
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Cylinder(self.radius, self.length)
 
 
 @dataclass(frozen=True)
-class Halfspace:
+class Halfspace(_Shape):
     """The solid ``{x : n . x <= offset}`` in the obstacle frame (``n`` normalised)."""
 
-    normal: tuple[float, float, float]
-    offset: float = 0.0
-
+    normal: Normal
+    offset: Finite = 0.0
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Halfspace(np.array(self.normal), self.offset)
 
 
 @dataclass(frozen=True)
-class Plane:
+class Plane(_Shape):
     """The (two-sided, zero-thickness) plane ``{x : n . x = offset}`` in the obstacle frame."""
 
-    normal: tuple[float, float, float]
-    offset: float = 0.0
-
+    normal: Normal
+    offset: Finite = 0.0
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape."""
         return coal.Plane(np.array(self.normal), self.offset)
 
 
 @dataclass(frozen=True)
-class Mesh:
+class Mesh(_Shape):
     """A triangle mesh loaded from ``path`` (STL, OBJ, DAE, ...), scaled by ``scale``.
 
     ``convex=True`` uses its convex hull (fast); ``False`` keeps the exact mesh.
     """
 
-    path: str
-    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    convex: bool = False
-
+    path: Text
+    scale: Scale = (1.0, 1.0, 1.0)
+    convex: Flag = False
     def geometry(self) -> coal.CollisionGeometry:
         """The Coal shape (loaded from disk)."""
         if not Path(self.path).is_file():

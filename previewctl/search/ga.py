@@ -17,18 +17,20 @@ compared modulo 2 pi.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated, Any
 
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.genes import (
     Candidate,
     candidates,
-    check_positive_int,
     distinct,
     gene_periodic,
     halton,
@@ -37,8 +39,49 @@ from previewctl.search.newton import NewtonRedundancy
 from previewctl.search.redundancy import RedundancyMap, wrap_angle
 from previewctl.search.scoring import Scored, score, score_configurations
 from previewctl.types import Array
+from previewctl.validation import Checked, Count, Finite, Integer, NonNegative, Probability, build, interval
 
 # ------------------------------------------------------------------------------------- 1-step GA
+
+Population = Annotated[Integer, Field(ge=4)]
+"""Individuals per generation (at least 4: an elite, a peak and two parents)."""
+
+
+@dataclass(frozen=True)
+class GAOptions(Checked):
+    """Settings of the 1-step GA (:class:`OneStepGA` describes the operators).
+
+    Attributes:
+        population: individuals per generation.
+        elite: individuals copied unchanged.
+        mutation_scale: largest Gaussian mutation standard deviation [rad].
+        top_k: peaks kept.
+        niche_radius: least joint-space distance [rad] between two peaks.
+        immigrants: fraction of random individuals per generation, in [0, 0.5].
+        tournament: tournament size.
+        crossover_rate: probability of crossover.
+        blend: BLX ``alpha``.
+        branch_flip: probability of a branch flip.
+    """
+
+    population: Population = 64
+    elite: Count = 2
+    mutation_scale: NonNegative = 0.25
+    top_k: Count = 4
+    niche_radius: NonNegative = 0.35
+    immigrants: Annotated[Finite, interval(0, 0.5)] = 0.1
+    tournament: Count = 2
+    crossover_rate: Probability = 0.9
+    blend: NonNegative = 0.5
+    branch_flip: Probability = 0.1
+
+    def check(self) -> None:
+        """The elite and the peaks leave room for children: ``elite + top_k < population``."""
+        if self.elite + self.top_k >= self.population:
+            raise ParameterError(
+                f"elite + top_k must be below population: {self.elite} + {self.top_k} >= {self.population}"
+            )
+
 
 
 class OneStepGA:
@@ -71,16 +114,10 @@ class OneStepGA:
         evaluator: AMSIP evaluator.
         redundancy: the redundancy map.
         rng: the only source of randomness (seed it for reproducible runs).
-        population: individuals per generation (>= 4).
-        elite: individuals copied unchanged (>= 1).
-        mutation_scale: largest Gaussian mutation standard deviation [rad].
-        top_k: peaks kept.
-        niche_radius: least joint-space distance [rad] between two peaks.
-        immigrants: fraction of random individuals per generation, in [0, 0.5].
-        tournament: tournament size (>= 1).
-        crossover_rate: probability of crossover, in [0, 1].
-        blend: BLX ``alpha`` (>= 0).
-        branch_flip: probability of a branch flip, in [0, 1].
+        options: :class:`GAOptions` fields to change from their defaults, e.g. ``population=16``.
+
+    Raises:
+        ParameterError: ``rng`` is not a generator, or an unknown or bad option.
 
     Attributes:
         branch_lock: ``None`` (search every branch, the default) or one branch: every individual of the
@@ -95,42 +132,15 @@ class OneStepGA:
         evaluator: Evaluator,
         redundancy: RedundancyMap,
         rng: np.random.Generator,
-        *,
-        population: int = 64,
-        elite: int = 2,
-        mutation_scale: float = 0.25,
-        top_k: int = 4,
-        niche_radius: float = 0.35,
-        immigrants: float = 0.1,
-        tournament: int = 2,
-        crossover_rate: float = 0.9,
-        blend: float = 0.5,
-        branch_flip: float = 0.1,
+        **options: Any,
     ) -> None:
         if not isinstance(rng, np.random.Generator):
-            raise ConfigurationError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        self.population = check_positive_int("population", population, 4)
-        self.elite = check_positive_int("elite", elite)
-        self.top_k = check_positive_int("top_k", top_k)
-        self.tournament = check_positive_int("tournament", tournament)
-        if self.elite + self.top_k >= self.population:
-            raise ConfigurationError(
-                f"elite + top_k must be below population: {self.elite} + {self.top_k} >= {self.population}"
-            )
-        for name, value, lo, hi in (
-            ("mutation_scale", mutation_scale, 0.0, np.inf),
-            ("niche_radius", niche_radius, 0.0, np.inf),
-            ("immigrants", immigrants, 0.0, 0.5),
-            ("crossover_rate", crossover_rate, 0.0, 1.0),
-            ("blend", blend, 0.0, np.inf),
-            ("branch_flip", branch_flip, 0.0, 1.0),
-        ):
-            if not (np.isfinite(value) and lo <= value <= hi):
-                raise ConfigurationError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
+            raise ParameterError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        self.options = o = build(GAOptions, options, ParameterError)
+        self.population, self.elite, self.top_k, self.tournament = o.population, o.elite, o.top_k, o.tournament
+        self.mutation_scale, self.niche_radius, self.immigrants = o.mutation_scale, o.niche_radius, o.immigrants
+        self.crossover_rate, self.blend, self.branch_flip = o.crossover_rate, o.blend, o.branch_flip
         self.robot, self.evaluator, self.redundancy, self.rng = robot, evaluator, redundancy, rng
-        self.mutation_scale, self.niche_radius = float(mutation_scale), float(niche_radius)
-        self.immigrants, self.crossover_rate = float(immigrants), float(crossover_rate)
-        self.blend, self.branch_flip = float(blend), float(branch_flip)
         self._lower = np.asarray(redundancy.gene_lower, dtype=float)
         self._upper = np.asarray(redundancy.gene_upper, dtype=float)
         self._gene_periodic = gene_periodic(redundancy)

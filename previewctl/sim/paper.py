@@ -19,21 +19,20 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from previewctl.control.params import ControllerSpec
+from previewctl.control.params import CONTROLLER_NAMES, PAPER_WEIGHTS, ControllerSpec
 from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_write_bytes
 from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
 
-PAPER_CONTROLLERS: dict[str, dict[str, Any]] = {
-    "none": {},
-    "gradient": {},
+_PAPER_PARAMETERS: dict[str, dict[str, Any]] = {
     "single": {"preview_time": 10.0},
-    "multi": {"preview_time": 5.0, "weights": (0.3, 0.65, 0.05)},
-    "reach": {"preview_time": 5.0, "weights": (0.3, 0.65, 0.05)},
+    "multi": {"preview_time": 5.0, "weights": PAPER_WEIGHTS},
+    "reach": {"preview_time": 5.0, "weights": PAPER_WEIGHTS},
 }
-"""Parameter overrides per controller (on top of the scenario's ``[controller]`` table)."""
+PAPER_CONTROLLERS: dict[str, dict[str, Any]] = {name: _PAPER_PARAMETERS.get(name, {}) for name in CONTROLLER_NAMES}
+"""Every controller, with its parameter overrides (on top of the scenario's ``[controller]`` table)."""
 
 
 def shipped_scenarios_dir() -> Path:

@@ -15,7 +15,7 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
     duration = 5.0                          # [s]
     # start_time = 0.0 [s]; orientation_rpy = [r, p, y] [rad] (pose tasks only)
 
-    [[obstacles]]                  # as previewctl.scene.scene_from_dict accepts
+    [[obstacles]]                  # as previewctl.scene.file.scene_from_dict accepts
     name = "ball"
     shape = "sphere"
     radius = 0.1
@@ -36,18 +36,19 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
     [potential]                    # influence_distance [m], gain, collision_value
     [output]                       # figures = ["strobe", "S", "clearance", "error"], gif = true, strobe_poses = 12
 
-Every error is a :class:`~previewctl.errors.ScenarioError` whose message starts with the file name,
-names the bad key by its dotted path (``controller.weights``), shows the value, and for an unknown
-key lists the valid ones (with a "did you mean" for near misses).
+The document is first checked against the schema (:mod:`previewctl.sim.schema`, which says how to
+add a key), then the robot, path, scene and controller are built. Every error is a
+:class:`~previewctl.errors.ScenarioError` whose message starts with the file name, names the bad key
+by its dotted path (``controller.weights``), shows the value, and for an unknown key or name lists
+the valid ones (with a "did you mean" for near misses).
 """
 
 from __future__ import annotations
 
-import difflib
-import math
 import os
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -59,103 +60,26 @@ if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
-from previewctl.control.params import CONTROLLER_NAMES, ControllerParams, ControllerSpec, check_preview_weights
+from previewctl.control.params import ControllerParams, ControllerSpec
+from previewctl.control.tracking import gain_vector
 from previewctl.errors import PreviewctlError, ScenarioError
 from previewctl.index.amsi import IndexParams
 from previewctl.index.potential import Potential
 from previewctl.path import HandPath
-from previewctl.robot.load import load_robot
-from previewctl.robot.model import GEOMETRY_CHOICES, Robot
-from previewctl.scene.file import scene_from_dict
+from previewctl.robot.model import Robot
+from previewctl.scene.file import scene_from_tables
 from previewctl.scene.motion import rpy_to_matrix
 from previewctl.scene.shapes import Scene
+from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing
 from previewctl.types import Array
-from previewctl.validation import show
+from previewctl.validation import show, validate
+
+__all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "load_scenario", "scenario_from_dict"]
 
 START_TOLERANCE = 0.01
 """Largest distance [m] allowed between the hand at ``q0`` and the path start."""
 START_ANGLE_TOLERANCE = 0.05
 """Largest angle [rad] allowed between the hand orientation at ``q0`` and the path's (pose tasks)."""
-FIGURES: tuple[str, ...] = ("strobe", "S", "clearance", "error")
-"""Figures the ``[output]`` section may ask for."""
-
-_TOP_KEYS = ("name", "description", "seed", "robot", "path", "obstacles", "controller", "timing", "index",
-             "potential", "output")
-_ROBOT_KEYS = ("source", "tip", "lock", "task", "guarded_links", "control_points", "geometry", "package_dirs",
-               "q0", "q0_deg")
-_PATH_KEYS = ("waypoints", "duration", "start_time", "orientation_rpy")
-_CONTROLLER_KEYS = ("name", "gain", "gradient_gain", "feedback_gain", "damping", "singular_threshold",
-                    "velocity_scale", "preview_time", "weights", "previews", "population", "elite", "top_k",
-                    "fd_step", "ga", "with_gradient")
-_TIMING_KEYS = ("dt", "frame", "duration")
-_INDEX_KEYS = ("length_unit", "weights")
-_POTENTIAL_KEYS = ("influence_distance", "gain", "collision_value")
-_OUTPUT_KEYS = ("figures", "gif", "strobe_poses")
-
-
-@dataclass(frozen=True)
-class RobotSpec:
-    """How the scenario's robot was loaded (to reload it, e.g. with exact meshes).
-
-    Attributes mirror :func:`previewctl.robot.load.load_robot`'s arguments.
-    """
-
-    source: str
-    tip: str | None = None
-    lock: tuple[str, ...] | None = None
-    task: str | None = None
-    guarded_links: tuple[str, ...] | str = "intermediate"
-    control_points: tuple[str, ...] | None = None
-    geometry: str = "convex"
-    package_dirs: tuple[str, ...] = ()
-
-    def load(self, geometry: str | None = None) -> Robot:
-        """Load the robot, optionally with another ``geometry`` (one of ``GEOMETRY_CHOICES``)."""
-        return load_robot(
-            self.source,
-            tip=self.tip,
-            lock=self.lock,
-            task=self.task,  # type: ignore[arg-type]
-            control_points=self.control_points,
-            guarded_links=self.guarded_links,  # type: ignore[arg-type]
-            geometry=(geometry or self.geometry),  # type: ignore[arg-type]
-            package_dirs=self.package_dirs,
-        )
-
-
-@dataclass(frozen=True)
-class Timing:
-    """Time steps of a run.
-
-    Attributes:
-        dt: control period [s].
-        frame: camera frame period [s]; GA controllers run one generation per frame.
-        duration: simulated time [s].
-    """
-
-    dt: float = 0.01
-    frame: float = 0.033
-    duration: float = 1.0
-
-    @property
-    def steps(self) -> int:
-        """Number of control periods in ``duration``."""
-        return max(1, round(self.duration / self.dt))
-
-
-@dataclass(frozen=True)
-class OutputSpec:
-    """What ``previewctl run`` writes besides the log.
-
-    Attributes:
-        figures: figure names among :data:`FIGURES`.
-        gif: whether to write an animated GIF (planar arms).
-        strobe_poses: number of arm poses drawn in the strobe plot.
-    """
-
-    figures: tuple[str, ...] = FIGURES
-    gif: bool = True
-    strobe_poses: int = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,82 +125,6 @@ class Scenario:
         return self.robot_spec.load("mesh")
 
 
-# ------------------------------------------------------------------------------- validation
-
-
-class _Reader:
-    """Typed access to TOML values with messages that name the dotted key and the value."""
-
-    def __init__(self, origin: str) -> None:
-        self.origin = origin
-
-    def error(self, message: str) -> ScenarioError:
-        return ScenarioError(f"{self.origin}: {message}")
-
-    def table(self, value: object, where: str) -> Mapping[str, Any]:
-        if not isinstance(value, Mapping):
-            raise self.error(f"{where} must be a table ([{where}]), got {show(value)}")
-        return value
-
-    def keys(self, table: Mapping[str, Any], where: str, valid: Sequence[str]) -> None:
-        for key in table:
-            if key not in valid:
-                dotted = f"{where}.{key}" if where else key
-                close = difflib.get_close_matches(str(key), valid, n=1)
-                hint = f" (did you mean {(where + '.' if where else '') + close[0]!r}?)" if close else ""
-                section = f"[{where}]" if where else "the top level"
-                raise self.error(f"unknown key {dotted!r}{hint}; valid keys in {section}: {', '.join(valid)}")
-
-    def number(self, value: object, where: str, *, positive: bool = False, nonnegative: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.error(f"{where} must be a finite number, got {show(value)}")
-        if positive and value <= 0:
-            raise self.error(f"{where} must be > 0, got {show(value)}")
-        if nonnegative and value < 0:
-            raise self.error(f"{where} must be >= 0, got {show(value)}")
-        return float(value)
-
-    def integer(self, value: object, where: str, minimum: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.error(f"{where} must be an integer, got {show(value)}")
-        if minimum is not None and value < minimum:
-            raise self.error(f"{where} must be >= {minimum}, got {value}")
-        return int(value)
-
-    def string(self, value: object, where: str, choices: Sequence[str] | None = None) -> str:
-        if not isinstance(value, str):
-            raise self.error(f"{where} must be a string, got {show(value)}")
-        if choices is not None and value not in choices:
-            raise self.error(f"{where} = {value!r} is not valid; valid: {', '.join(choices)}")
-        return value
-
-    def boolean(self, value: object, where: str) -> bool:
-        if not isinstance(value, bool):
-            raise self.error(f"{where} must be true or false, got {show(value)}")
-        return value
-
-    def strings(self, value: object, where: str) -> tuple[str, ...]:
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise self.error(f"{where} must be a list of strings, got {show(value)}")
-        return tuple(value)
-
-    def numbers(self, value: object, where: str, size: int | None = None) -> tuple[float, ...]:
-        if (
-            not isinstance(value, list)
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-            or not all(math.isfinite(v) for v in value)
-        ):
-            raise self.error(f"{where} must be a list of finite numbers, got {show(value)}")
-        if size is not None and len(value) != size:
-            raise self.error(f"{where} must have {size} entries, got {len(value)}: {show(value)}")
-        return tuple(float(v) for v in value)
-
-    def number_or_numbers(self, value: object, where: str) -> tuple[float, ...]:
-        if isinstance(value, list):
-            return self.numbers(value, where)
-        return (self.number(value, where),)
-
-
 def load_scenario(path: str | os.PathLike[str]) -> Scenario:
     """Read and validate a scenario TOML file.
 
@@ -314,40 +162,42 @@ def scenario_from_dict(
     Raises:
         ScenarioError: a bad key or value (named by its dotted path in the message).
     """
-    base = Path(base_dir)
     origin = str(source) if source is not None else "scenario"
-    rd = _Reader(origin)
-    doc = rd.table(data, "scenario")
-    rd.keys(doc, "", _TOP_KEYS)
-    if "robot" not in doc:
-        raise rd.error("missing section [robot] (with at least source = ... and q0 = [...])")
-    if "path" not in doc:
-        raise rd.error("missing section [path] (with waypoints = [[x, y(, z)], ...] and duration = ...)")
-    default_name = Path(source).stem if source is not None else "scenario"
-    name = rd.string(doc.get("name", default_name), "name")
-    if not name:
-        raise rd.error("name must be a non-empty string")
-    description = rd.string(doc.get("description", ""), "description")
-    seed = rd.integer(doc.get("seed", 0), "seed", minimum=0)
+    doc: ScenarioFile = validate(ScenarioFile, data, ScenarioError, prefix=f"{origin}: ", root="the scenario")
+    try:
+        return _build(doc, Path(base_dir), source)
+    except PreviewctlError as exc:
+        raise ScenarioError(f"{origin}: {exc}") from exc
 
-    robot_spec, q0_spec = _robot_spec(rd, rd.table(doc["robot"], "robot"), base)
+
+@contextmanager
+def _section(prefix: str) -> Iterator[None]:
+    """Errors of the value objects built inside, prefixed with where they come from (``"path."``)."""
     try:
+        yield
+    except PreviewctlError as exc:
+        raise ScenarioError(f"{prefix}{exc}") from exc
+
+
+def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None) -> Scenario:
+    """The runtime objects of a validated document; robot-dependent checks raise ``ScenarioError``."""
+    robot_spec = _robot_spec(doc.robot, base)
+    with _section("robot: "):
         robot = robot_spec.load()
-    except PreviewctlError as exc:
-        raise rd.error(f"robot: {exc}") from exc
-    path = _path(rd, rd.table(doc["path"], "path"), robot)
-    q0 = _initial_configuration(rd, robot, q0_spec, path)
-    try:
-        scene = scene_from_dict(doc.get("obstacles", []), "obstacles", base)
-    except PreviewctlError as exc:
-        raise rd.error(str(exc)) from exc
-    controller = _controller(rd, rd.table(doc.get("controller", {}), "controller"), robot)
-    timing = _timing(rd, rd.table(doc.get("timing", {}), "timing"), path)
-    index = _index(rd, rd.table(doc.get("index", {}), "index"), robot)
-    potential = _potential(rd, rd.table(doc.get("potential", {}), "potential"))
-    outputs = _outputs(rd, rd.table(doc.get("output", {}), "output"))
+    path = _path(doc.path, robot)
+    q0 = _initial_configuration(doc.robot, robot, path)
+    scene = scene_from_tables(doc.obstacles, base)
+    controller = _controller(doc.controller, robot)
+    with _section("[timing] "):
+        timing = Timing(doc.timing.dt, doc.timing.frame, doc.timing.duration or path.end_time)
+    index = doc.index
+    if index.weights is not None and len(index.weights) != len(robot.control_points):
+        raise ScenarioError(
+            f"index.weights has {len(index.weights)} entries; robot {robot.name!r} has {len(robot.control_points)} "
+            f"control points ({', '.join(robot.control_points)})"
+        )
     return Scenario(
-        name=name,
+        name=doc.name or (Path(source).stem if source is not None else "scenario"),
         robot=robot,
         robot_spec=robot_spec,
         q0=q0,
@@ -355,75 +205,47 @@ def scenario_from_dict(
         scene=scene,
         controller=controller,
         timing=timing,
-        index=index,
-        potential=potential,
-        seed=seed,
-        outputs=outputs,
+        index=IndexParams(**index.model_dump()),
+        potential=Potential(**doc.potential.model_dump()),
+        seed=doc.seed,
+        outputs=OutputSpec(**doc.output.model_dump()),
         source=Path(source) if source is not None else None,
-        description=description,
+        description=doc.description,
     )
 
 
-def _robot_spec(rd: _Reader, table: Mapping[str, Any], base: Path) -> tuple[RobotSpec, tuple[str, tuple[float, ...]]]:
-    rd.keys(table, "robot", _ROBOT_KEYS)
-    if "source" not in table:
-        raise rd.error("robot.source is missing (a URDF path, 'planar4' or an example-robot-data name like 'panda')")
-    source = rd.string(table["source"], "robot.source")
-    if source.endswith(".urdf") and not Path(source).is_absolute():
-        source = str(base / source)
-    guarded: tuple[str, ...] | str = "intermediate"
-    if "guarded_links" in table:
-        value = table["guarded_links"]
-        guarded = value if isinstance(value, str) else rd.strings(value, "robot.guarded_links")
-    spec = RobotSpec(
-        source=source,
-        tip=rd.string(table["tip"], "robot.tip") if "tip" in table else None,
-        lock=rd.strings(table["lock"], "robot.lock") if "lock" in table else None,
-        task=rd.string(table["task"], "robot.task", ("planar", "position", "pose")) if "task" in table else None,
-        guarded_links=guarded,
-        control_points=rd.strings(table["control_points"], "robot.control_points")
-        if "control_points" in table
-        else None,
-        geometry=rd.string(table.get("geometry", "convex"), "robot.geometry", GEOMETRY_CHOICES),
-        package_dirs=tuple(
-            str(base / d) if not Path(d).is_absolute() else d
-            for d in rd.strings(table.get("package_dirs", []), "robot.package_dirs")
-        ),
-    )
-    if ("q0" in table) == ("q0_deg" in table):
-        raise rd.error("give the initial configuration as exactly one of robot.q0 [rad] or robot.q0_deg [deg]")
-    key = "q0" if "q0" in table else "q0_deg"
-    return spec, (key, rd.numbers(table[key], f"robot.{key}"))
+def _robot_spec(table: Any, base: Path) -> RobotSpec:
+    """The robot's spec, with relative URDF and package paths resolved against ``base``."""
+    values = table.model_dump(exclude={"q0", "q0_deg"})
+    if values["source"].endswith(".urdf") and not Path(values["source"]).is_absolute():
+        values["source"] = str(base / values["source"])
+    values["package_dirs"] = tuple(d if Path(d).is_absolute() else str(base / d) for d in values["package_dirs"])
+    return RobotSpec(**values)
 
 
-def _path(rd: _Reader, table: Mapping[str, Any], robot: Robot) -> HandPath:
-    rd.keys(table, "path", _PATH_KEYS)
-    for key in ("waypoints", "duration"):
-        if key not in table:
-            raise rd.error(f"path.{key} is missing")
-    raw = table["waypoints"]
-    if not isinstance(raw, list) or len(raw) < 2:
-        raise rd.error(f"path.waypoints must be a list of at least 2 points [[x, y(, z)], ...], got {show(raw)}")
+def _path(table: Any, robot: Robot) -> HandPath:
+    """The hand path of ``[path]``: one waypoint entry per task coordinate, an orientation for pose tasks."""
     dim = 2 if robot.task == "planar" else 3
-    points = [rd.numbers(p, f"path.waypoints[{i}]", dim) for i, p in enumerate(raw)]
-    duration = rd.number(table["duration"], "path.duration", positive=True)
-    start = rd.number(table.get("start_time", 0.0), "path.start_time")
+    for i, point in enumerate(table.waypoints):
+        if len(point) != dim:
+            raise ScenarioError(f"path.waypoints[{i}] must have {dim} entries (robot {robot.name!r} has task "
+                                f"{robot.task!r}), got {len(point)}: {show(list(point))}")
     orientation = None
-    if "orientation_rpy" in table:
+    if table.orientation_rpy is not None:
         if robot.task != "pose":
-            raise rd.error(f"path.orientation_rpy only applies to task = 'pose'; robot {robot.name!r} has task "
-                           f"{robot.task!r}")
-        orientation = rpy_to_matrix(np.array(rd.numbers(table["orientation_rpy"], "path.orientation_rpy", 3)))
+            raise ScenarioError(f"path.orientation_rpy only applies to task = 'pose'; robot {robot.name!r} has task "
+                                f"{robot.task!r}")
+        orientation = rpy_to_matrix(table.orientation_rpy)
     elif robot.task == "pose":
-        raise rd.error("path.orientation_rpy = [roll, pitch, yaw] [rad] is required for task = 'pose'")
-    try:
-        return HandPath(np.array(points), duration, start, orientation)
-    except PreviewctlError as exc:
-        raise rd.error(f"path: {exc}") from exc
+        raise ScenarioError("path.orientation_rpy = [roll, pitch, yaw] [rad] is required for task = 'pose'")
+    with _section("path."):  # HandPath's messages start with the key, e.g. "duration must be > 0 [s]"
+        return HandPath(np.array(table.waypoints), table.duration, table.start_time, orientation)
 
 
-def _initial_configuration(rd: _Reader, robot: Robot, spec: tuple[str, tuple[float, ...]], path: HandPath) -> Array:
-    key, values = spec
+def _initial_configuration(table: Any, robot: Robot, path: HandPath) -> Array:
+    """``q0`` [rad] of ``[robot]``: one entry per joint, within the limits, the hand at the path start."""
+    key = "q0" if table.q0 is not None else "q0_deg"
+    values = getattr(table, key)
     where = f"robot.{key}"
     angles = np.radians(values) if key == "q0_deg" else np.array(values)
     if len(angles) == robot.nq:
@@ -432,7 +254,7 @@ def _initial_configuration(rd: _Reader, robot: Robot, spec: tuple[str, tuple[flo
         q0 = robot.configuration_from_angles(angles)
     else:
         sizes = f"{robot.nv}" if robot.nq == robot.nv else f"{robot.nv} (angles) or {robot.nq} (configuration)"
-        raise rd.error(
+        raise ScenarioError(
             f"{where} has {len(values)} entries; robot {robot.name!r} needs {sizes} for joints "
             f"{', '.join(robot.joint_names)}"
         )
@@ -440,7 +262,7 @@ def _initial_configuration(rd: _Reader, robot: Robot, spec: tuple[str, tuple[flo
     outside = np.flatnonzero((q0 < lo - 1e-9) | (q0 > hi + 1e-9))
     if outside.size:
         j = int(outside[0])
-        raise rd.error(
+        raise ScenarioError(
             f"{where}: joint {robot.joint_names_by_q()[j]!r} = {q0[j]:.6g} rad is outside its limits "
             f"[{lo[j]:.6g}, {hi[j]:.6g}] rad"
         )
@@ -455,7 +277,7 @@ def _initial_configuration(rd: _Reader, robot: Robot, spec: tuple[str, tuple[flo
     gap = float(np.linalg.norm(hand - start))
     if gap > START_TOLERANCE:
         shown = np.array2string(hand[: path.dim], precision=4, separator=", ")
-        raise rd.error(
+        raise ScenarioError(
             f"{where} puts the hand at {shown} m, {gap:.4f} m from the path start "
             f"{np.array2string(path.waypoints[0], precision=4, separator=', ')} m; it must be within "
             f"{START_TOLERANCE} m (move q0 or the first waypoint)"
@@ -463,96 +285,16 @@ def _initial_configuration(rd: _Reader, robot: Robot, spec: tuple[str, tuple[flo
     if robot.task == "pose" and path.orientation is not None:
         angle = float(np.linalg.norm(pin.log3(path.orientation @ tip.rotation.T)))
         if angle > START_ANGLE_TOLERANCE:
-            raise rd.error(f"{where} turns the hand {angle:.4f} rad away from path.orientation_rpy; it must be "
-                           f"within {START_ANGLE_TOLERANCE} rad")
+            raise ScenarioError(f"{where} turns the hand {angle:.4f} rad away from path.orientation_rpy; it must be "
+                                f"within {START_ANGLE_TOLERANCE} rad")
     return q0
 
 
-def _controller(rd: _Reader, table: Mapping[str, Any], robot: Robot) -> ControllerSpec:
-    rd.keys(table, "controller", _CONTROLLER_KEYS)
-    name = rd.string(table.get("name", "none"), "controller.name", CONTROLLER_NAMES)
-    kwargs: dict[str, Any] = {}
+def _controller(table: Any, robot: Robot) -> ControllerSpec:
+    """The controller of ``[controller]``: the gains have one entry or one per joint velocity."""
     for key in ("gain", "gradient_gain"):
-        if key in table:
-            gains = rd.number_or_numbers(table[key], f"controller.{key}")
-            if len(gains) not in (1, robot.nv):
-                raise rd.error(f"controller.{key} has {len(gains)} entries; give one number or {robot.nv} "
-                               f"(one per joint velocity)")
-            if not all(g > 0 for g in gains):
-                raise rd.error(f"controller.{key} must be positive, got {show(table[key])}")
-            kwargs[key] = gains
-    for key in ("feedback_gain", "damping"):
-        if key in table:
-            kwargs[key] = rd.number(table[key], f"controller.{key}", nonnegative=True)
-    for key in ("singular_threshold", "velocity_scale", "preview_time", "fd_step"):
-        if key in table:
-            kwargs[key] = rd.number(table[key], f"controller.{key}", positive=True)
-    if "velocity_scale" in kwargs and kwargs["velocity_scale"] > 1:
-        raise rd.error(f"controller.velocity_scale must lie in (0, 1], got {kwargs['velocity_scale']!r}")
-    for key, minimum in (("previews", 1), ("population", 2), ("elite", 0), ("top_k", 1)):
-        if key in table:
-            kwargs[key] = rd.integer(table[key], f"controller.{key}", minimum)
-    if "weights" in table:
-        weights = rd.numbers(table["weights"], "controller.weights")
-        try:
-            kwargs["weights"] = check_preview_weights(list(weights), "controller.weights")
-        except PreviewctlError as exc:
-            raise rd.error(str(exc)) from exc
-    if "ga" in table:
-        kwargs["ga_options"] = tuple(rd.table(table["ga"], "controller.ga").items())
-    if "with_gradient" in table:
-        kwargs["with_gradient"] = rd.boolean(table["with_gradient"], "controller.with_gradient")
-    try:
-        params = ControllerParams(**kwargs)
-    except PreviewctlError as exc:
-        raise rd.error(f"controller.{exc}") from exc
-    return ControllerSpec(name, params)
-
-
-def _timing(rd: _Reader, table: Mapping[str, Any], path: HandPath) -> Timing:
-    rd.keys(table, "timing", _TIMING_KEYS)
-    dt = rd.number(table.get("dt", 0.01), "timing.dt", positive=True)
-    frame = rd.number(table.get("frame", 0.033), "timing.frame", positive=True)
-    duration = rd.number(table.get("duration", path.end_time), "timing.duration", positive=True)
-    if dt > duration:
-        raise rd.error(f"timing.dt = {dt} s is longer than timing.duration = {duration} s")
-    return Timing(dt, frame, duration)
-
-
-def _index(rd: _Reader, table: Mapping[str, Any], robot: Robot) -> IndexParams:
-    rd.keys(table, "index", _INDEX_KEYS)
-    length_unit = rd.number(table.get("length_unit", 0.01), "index.length_unit", positive=True)
-    weights = None
-    if "weights" in table:
-        weights = rd.numbers(table["weights"], "index.weights")
-        if len(weights) != len(robot.control_points):
-            raise rd.error(
-                f"index.weights has {len(weights)} entries; robot {robot.name!r} has {len(robot.control_points)} "
-                f"control points ({', '.join(robot.control_points)})"
-            )
-        if not all(w >= 0 for w in weights):
-            raise rd.error(f"index.weights must be >= 0, got {list(weights)}")
-    try:
-        return IndexParams(weights=weights, length_unit=length_unit)
-    except PreviewctlError as exc:
-        raise rd.error(f"index.{exc}") from exc
-
-
-def _potential(rd: _Reader, table: Mapping[str, Any]) -> Potential:
-    rd.keys(table, "potential", _POTENTIAL_KEYS)
-    kwargs = {key: rd.number(table[key], f"potential.{key}") for key in _POTENTIAL_KEYS if key in table}
-    try:
-        return Potential(**kwargs)
-    except PreviewctlError as exc:
-        raise rd.error(f"potential.{exc}") from exc
-
-
-def _outputs(rd: _Reader, table: Mapping[str, Any]) -> OutputSpec:
-    rd.keys(table, "output", _OUTPUT_KEYS)
-    figures = rd.strings(table.get("figures", list(FIGURES)), "output.figures")
-    for figure in figures:
-        if figure not in FIGURES:
-            raise rd.error(f"output.figures: unknown figure {figure!r}; valid: {', '.join(FIGURES)}")
-    gif = rd.boolean(table.get("gif", True), "output.gif")
-    poses = rd.integer(table.get("strobe_poses", 12), "output.strobe_poses", minimum=2)
-    return OutputSpec(figures, gif, poses)
+        gain_vector(getattr(table, key), robot.nv, f"controller.{key}")
+    values = table.model_dump(exclude={"name", "ga"})
+    ga_options = tuple(table.ga.model_dump(exclude_unset=True).items())
+    with _section("[controller] "):
+        return ControllerSpec(table.name, ControllerParams(**values, ga_options=ga_options))

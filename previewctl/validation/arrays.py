@@ -1,4 +1,4 @@
-"""Input checks shared by the modules that read user values; each raises the caller's error type."""
+"""Checks of NumPy array arguments (configurations, positions, rotations, times); each raises the caller's error."""
 
 from __future__ import annotations
 

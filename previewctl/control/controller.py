@@ -1,0 +1,153 @@
+"""The controller you step from your own loop: ``qdot = ctrl.step(q, t)``.
+
+Like pink's ``solve_ik`` and mink's ``Configuration``, previewctl leaves the loop to you: you read
+``q`` from your robot (or integrate it yourself), ask for a joint velocity, and apply it for as long
+as you like::
+
+    ctrl = previewctl.make_controller(scenario)      # or make_controller("multi", robot=..., path=...)
+    q, dt = scenario.q0, 0.004                       # any rate: 250 Hz here
+    for k in range(2500):
+        t = k * dt
+        qdot = ctrl.step(q, t)                       # [rad/s]
+        q = previewctl.integrate(robot, q, qdot, dt)
+        print(ctrl.last_info.hand_error)             # what the cycle computed (ControlInfo)
+
+Per call, :meth:`Controller.step` validates ``q``, computes its kinematics once, decides from ``t``
+whether a camera frame is due and runs the control law (eq. 19 with the mode's null-space input).
+
+Camera frames: the GA searches of the preview modes run one generation per frame of period
+``frame`` (33 ms by default), whatever the rate of your loop. A frame is due at the first call and
+whenever ``floor(t / frame)`` differs from its value at the previous call; between frames the
+imaginary arms' last optima are kept. A loop slower than the frame rate thus runs one generation
+per call, never a backlog.
+"""
+
+from __future__ import annotations
+
+import math
+
+from previewctl.control.base import ControlInfo, ControlLaw, ControlState
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ConfigurationError, ParameterError, PreviewctlError
+from previewctl.kinematics import kinematics, kinematics_reader
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.types import Array
+from previewctl.validation import real_scalar
+
+FRAME_PERIOD = 0.033
+"""Default camera frame period [s]: one GA generation per frame (the paper's 30 Hz camera)."""
+CONTROL_PERIOD = 0.01
+"""Default control period [s]: the ``dt`` of the first call (see :meth:`Controller.step`)."""
+
+
+def frame_index(t: float, frame: float) -> int:
+    """Camera frame number of time ``t`` [s] for frame period ``frame`` [s] (robust to rounding)."""
+    return math.floor(t / frame + 1e-9)
+
+
+def positive_period(value: object, name: str) -> float:
+    """``value`` as a finite time > 0 [s]; :class:`ParameterError` naming ``name`` otherwise."""
+    period = real_scalar(value, name, ParameterError)
+    if period <= 0.0:
+        raise ParameterError(f"{name} must be a time > 0 [s], got {period!r}")
+    return period
+
+
+class Controller:
+    """A control law with the per-call bookkeeping: kinematics, camera frames, the last cycle's details.
+
+    Build it with :func:`previewctl.make_controller`.
+
+    Args:
+        law: the mode's control law (``law.command(t, q, state)``).
+        robot: the arm the law was built for.
+        path: the desired hand path ``r_d(t)``.
+        frame: camera frame period [s].
+        dt: control period [s] assumed at the first call (later calls use the time elapsed).
+
+    Raises:
+        ParameterError: ``frame`` or ``dt`` not a time > 0.
+    """
+
+    def __init__(
+        self,
+        law: ControlLaw,
+        robot: Robot,
+        path: HandPath,
+        *,
+        frame: float = FRAME_PERIOD,
+        dt: float = CONTROL_PERIOD,
+    ) -> None:
+        self.law, self.robot, self.path = law, robot, path
+        self.frame = positive_period(frame, "frame")
+        self.dt = positive_period(dt, "dt")
+        self._reader = kinematics_reader(robot)  # built once: each step only reads through it
+        self._last_frame: int | None = None
+        self._last_t: float | None = None
+        self._last_info: ControlInfo | None = None
+
+    @property
+    def name(self) -> str:
+        """The mode: ``none``, ``gradient``, ``single``, ``multi`` or ``reach``."""
+        return self.law.name
+
+    @property
+    def params(self) -> ControllerParams:
+        """The law's gains and settings."""
+        return self.law.params
+
+    @property
+    def last_info(self) -> ControlInfo:
+        """What the last :meth:`step` computed: targets, errors, limits, imaginary arms.
+
+        Raises:
+            PreviewctlError: no step yet.
+        """
+        if self._last_info is None:
+            raise PreviewctlError("no control cycle yet: call step(q, t) first")
+        return self._last_info
+
+    def frame_due(self, t: float) -> bool:
+        """Whether a :meth:`step` at time ``t`` [s] would start a camera frame (nothing changes)."""
+        return frame_index(t, self.frame) != self._last_frame
+
+    def step(self, q: Array, t: float, dt: float | None = None) -> Array:
+        """Joint velocity for configuration ``q`` at time ``t``: eq. 19 with the mode's null-space input.
+
+        Args:
+            q: the arm's configuration ``(nq,)`` [rad] (not modified).
+            t: time [s] on the path's clock; the camera frames follow it (see the module docstring).
+            dt: how long you will apply the result [s]; the position limits keep ``q + q̇ dt`` inside
+                them. Default: the time elapsed since the previous call, or the constructor's ``dt``
+                at the first call (and when ``t`` did not advance).
+
+        Returns:
+            ``q̇`` [rad/s], shape ``(nv,)``, within the joint speed and position limits.
+            :attr:`last_info` holds the rest of the cycle (:class:`~previewctl.control.base.ControlInfo`).
+
+        Raises:
+            ConfigurationError: ``q`` of the wrong length, a batch, or not finite.
+            ParameterError: ``t`` not a finite number or ``dt`` not a time > 0.
+        """
+        Q, single = self.robot.check_configurations(q)
+        if not single:
+            raise ConfigurationError(f"step takes one configuration ({self.robot.nq},), got a batch of shape {Q.shape}")
+        now = real_scalar(t, "t", ParameterError)
+        period = self._period(now, dt)
+        frame = frame_index(now, self.frame)
+        kin = kinematics(self.robot, Q, reader=self._reader)
+        state = ControlState(kin, self.path, period, frame_due=frame != self._last_frame)
+        qdot, info = self.law.command(now, Q[0], state)
+        self._last_frame, self._last_t, self._last_info = frame, now, info
+        return qdot
+
+    def _period(self, t: float, dt: float | None) -> float:
+        if dt is not None:
+            return positive_period(dt, "dt")
+        if self._last_t is not None and t > self._last_t:
+            return t - self._last_t
+        return self.dt
+
+    def __repr__(self) -> str:
+        return f"Controller({self.name!r}, robot={self.robot.name!r}, frame={self.frame}, dt={self.dt})"
