@@ -308,8 +308,9 @@ def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
 
 
 def test_preview_controller_computes_eq21_with_fake_searches(planar4: Robot) -> None:
+    """The paper-literal mode (coherent=False): eq. 21 on each search's best, at full gain at once."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5)
+    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, coherent=False)
     q = np.array(PLANAR_Q0)
     targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
     fakes = [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)]
@@ -329,6 +330,19 @@ def test_preview_controller_computes_eq21_with_fake_searches(planar4: Robot) -> 
     assert len(fakes[0].calls) == 1
     controller.command(1.02, q, state_for(planar4, q, path, frame_due=True))
     assert len(fakes[0].calls) == 2
+
+
+def test_coherent_preview_ramps_the_pull_in_from_zero(planar4: Robot) -> None:
+    """Coherent mode: the same targets, but the pull starts at 0 and reaches eq. 21 after settle_frames."""
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, settle_frames=2)
+    q = np.array(PLANAR_Q0)
+    targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
+    controller = PreviewController(planar4, params, "multi", [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)])
+    full = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
+    for ramp in (0.0, 0.5, 1.0, 1.0):
+        _, info = controller.command(1.0, q, state_for(planar4, q, path))
+        np.testing.assert_allclose(info.v, ramp * full, atol=1e-12)
 
 
 def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar4: Robot) -> None:
@@ -369,7 +383,7 @@ class FakePeaksGA(FakeGA):
 def reach_setup(planar4: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
     """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
     q = np.array(PLANAR_Q0)
     searches, nears = [], []
     for i, S_near in enumerate(near_S, start=1):

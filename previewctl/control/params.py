@@ -90,6 +90,12 @@ class ControllerParams(Checked):
         fd_step: finite-difference step of ``∇S`` [rad].
         ga_options: further :class:`~previewctl.search.ga.GAOptions` fields, as ``(name, value)`` pairs.
         with_gradient: ``single``/``multi`` also add ``K_g ∇S`` (``gradient_gain``) to ``v``.
+        coherent: ``single``/``multi`` keep each imaginary arm on one tracked peak of the arm's own elbow
+            branch and ramp the pull in (:mod:`previewctl.control.peaks`); ``False`` is the paper's
+            literal eq. 20/21 (each frame's argmax of each imaginary arm, any branch).
+        hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
+        settle_frames: camera frames over which the pull is ramped in after a change of peak.
+        track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
     """
 
     gain: Gains = (1.0,)
@@ -107,6 +113,10 @@ class ControllerParams(Checked):
     fd_step: Positive = 1e-4
     ga_options: tuple[tuple[Text, Any], ...] = field(default=())
     with_gradient: Flag = False
+    coherent: Flag = True
+    hysteresis: NonNegative = 0.2
+    settle_frames: Count = 15
+    track_radius: Positive = 0.5
 
     def check(self) -> None:
         """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,

@@ -11,10 +11,12 @@ import pinocchio as pin
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.gradient import GradientController
 from previewctl.control.params import ControllerParams
+from previewctl.control.peaks import PeakTracker
 from previewctl.control.tracking import gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
+from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
@@ -57,13 +59,15 @@ def step_searches(searches: Sequence[SearchLike], path: HandPath, times: Sequenc
     return [search.step(target, t_i) for search, target, t_i in zip(searches, targets, times, strict=True)]
 
 
-def wrapped_difference(robot: Robot, q: Array, target: Array) -> Array:
-    """``target ⊖ q`` ``(nv,)`` [rad or m], the full-turn angles wrapped into [−π, π).
+def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int, ...] = ()) -> Array:
+    """``target ⊖ q`` ``(nv,)`` [rad or m], the full-turn angles wrapped into [−π, π), except the
+    velocity indices in ``keep`` (their plain difference is kept).
 
     Continuous joints need no wrapping: ``pin.difference`` already returns their angle.
     """
     diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
     wrap = robot.joints.full_turn & ~robot.joints.continuous
+    wrap[list(keep)] = False
     return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
 
 
@@ -113,6 +117,19 @@ class PreviewController:
             self._local = GradientController(robot, evaluator, params)
         self._targets: Array | None = None
         self._target_amsip: Array | None = None
+        self._ramp = np.ones(len(self.searches))
+        self._coherent = params.coherent
+        self._trackers = [
+            PeakTracker(
+                robot.angles_of, robot.joints.full_turn,
+                track_radius=params.track_radius, settle_frames=params.settle_frames,
+            )
+            for _ in self.searches
+        ]
+        self._branches = PlanarRedundancy(robot) if params.coherent and robot.planar is not None else None
+        # The planar elbow joint is never wrapped: within one branch its plain difference is the way that
+        # does not pass through the unreachable folded wrist (q_n = ±π).
+        self._keep = (robot.nv - 1,) if self._branches is not None else ()
 
     @property
     def preview_times(self) -> Array:
@@ -123,12 +140,34 @@ class PreviewController:
         if self._targets is None:
             for search in self.searches:
                 search.seed(np.array(q, dtype=float))
+        if self._branches is not None:
+            branch = int(self._branches.genes_of(np.asarray(q, dtype=float)[None])[1][0])
+            for search in self.searches:
+                if isinstance(search, OneStepGA):
+                    search.branch_lock = branch
         targets, values = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
         times = [t + float(offset) for offset in self.preview_times]
         for i, best in enumerate(step_searches(self.searches, path, times)):
             targets[i], values[i] = np.asarray(best.q, dtype=float), float(best.S)
+            if self._coherent:
+                self._track(i, best, q, targets, values)
         self._targets, self._target_amsip = targets, values
         return targets, values
+
+    def _track(self, i: int, best: Any, q: Array, targets: Array, values: Array) -> None:
+        """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode)."""
+        search = self.searches[i]
+        if isinstance(search, OneStepGA):
+            Q, S = search.population_q, search.population_S
+        else:  # a stand-in search: its best and peaks
+            options = [best, *search.peaks()]
+            Q, S = np.array([np.asarray(c.q, dtype=float) for c in options]), np.array([float(c.S) for c in options])
+        peak = self._trackers[i].update(Q, S, q)
+        if peak is not None:
+            targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
+            search.seed(peak.q)  # keep the tracked peak in the population
+        elif self._targets is not None:  # nothing feasible this frame: keep the last target, pull off
+            targets[i], values[i], self._ramp[i] = self._targets[i], self._target_amsip[i], 0.0  # type: ignore[index]
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
@@ -137,8 +176,8 @@ class PreviewController:
         else:
             targets, values = self._targets, self._target_amsip
         direction = np.zeros(self.robot.nv)
-        for k, target in zip(self.weights, targets, strict=True):
-            direction += k * wrapped_difference(self.robot, q, target)
+        for k, ramp, target in zip(self.weights, self._ramp, targets, strict=True):
+            direction += k * ramp * wrapped_difference(self.robot, q, target, keep=self._keep)
         v = self._gain * direction
         if self._local is not None:
             v = v + self._local.null_space_input(q, t)

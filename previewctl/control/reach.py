@@ -17,6 +17,7 @@ from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.search.genes import joint_distance
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array
 
@@ -95,6 +96,12 @@ class ReachController:
         self._sweep_step = params.preview_time / (sweep_samples + 1)
         self._route: Route | None = None
         self._fallback: tuple[Array, Array] | None = None
+        self._frames = 0
+        coherent = params.coherent and robot.planar is not None
+        # coherent: the planar elbow joint's steps are never wrapped (an elbow change goes through the
+        # stretched wrist), and a node near the last route's node of its level keeps its identity unless
+        # another route beats it by the hysteresis margin
+        self._keep = (robot.nv - 1,) if coherent else ()
 
     @property
     def route(self) -> Route | None:
@@ -124,7 +131,9 @@ class ReachController:
                 branch = branch_a[pairs[:, 0]] if 2 * k <= self.sweep_samples + 1 else branch_b[pairs[:, 1]]
                 Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float), previous)
                 ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
-            steps = np.array([wrapped_difference(self.robot, a, b) for a, b in zip(previous, Q, strict=True)])
+            steps = np.array(
+                [wrapped_difference(self.robot, a, b, keep=self._keep) for a, b in zip(previous, Q, strict=True)]
+            )
             ok &= np.all(np.abs(steps) <= self._speed * dtau, axis=1)
             if k == 1:
                 first[pairs[:, 0], pairs[:, 1]] = Q
@@ -144,6 +153,7 @@ class ReachController:
             feasible, first = self._edges(nodes_prev, nodes, t + i * self.params.preview_time, path)
             if i == 0:
                 leads = first[0]
+            values = values * (1.0 + self.params.hysteresis * self._continues(i, nodes))
             score = np.where(feasible, total[:, None] + values[None, :], -np.inf)
             best_prev = score.argmax(axis=0)
             best = score.max(axis=0)
@@ -162,6 +172,15 @@ class ReachController:
         nodes = np.stack([levels[i][0][k] for i, k in enumerate(chain)])
         S = np.array([levels[i][1][k] for i, k in enumerate(chain)])
         return Route(nodes, S, complete=len(chain) == len(levels), lead=leads[chain[0]])
+
+    def _continues(self, level: int, nodes: Array) -> NDArray[np.bool_]:
+        """Which ``nodes`` of ``level`` continue the last route's node there (coherent mode only)."""
+        route = self._route
+        if not self.params.coherent or route is None or level >= len(route.nodes) or not len(nodes):
+            return np.zeros(len(nodes), dtype=bool)
+        angles = self.robot.angles_of(np.vstack([route.nodes[level][None], nodes]))
+        distance = joint_distance(angles[1:], angles[:1], self.robot.joints.full_turn)[:, 0]
+        return np.asarray(distance <= self.params.track_radius)
 
     def _update(self, t: float, q: Array, path: HandPath) -> tuple[Array, Array]:
         if self._fallback is None:
@@ -182,14 +201,20 @@ class ReachController:
         """Joint velocity [rad/s] for time ``t`` [s]."""
         if state.frame_due or self._fallback is None:
             targets, values = self._update(t, q, state.path)
+            self._frames += 1
         else:
             targets, values = self._fallback
         if self._route is not None:
             n = len(self._route.nodes)
             targets, values = targets.copy(), values.copy()
             targets[:n], values[:n] = self._route.nodes, self._route.S
-            v = wrapped_difference(self.robot, q, self._route.lead) / self._sweep_step
+            v = wrapped_difference(self.robot, q, self._route.lead, keep=self._keep) / self._sweep_step
         else:
-            pulls = [k * wrapped_difference(self.robot, q, g) for k, g in zip(self.weights, targets, strict=True)]
+            pulls = [
+                k * wrapped_difference(self.robot, q, g, keep=self._keep)
+                for k, g in zip(self.weights, targets, strict=True)
+            ]
             v = self._gain * np.sum(pulls, axis=0)
+        if self.params.coherent:  # ramp in while the searches settle
+            v = v * min(1.0, self._frames / self.params.settle_frames)
         return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())

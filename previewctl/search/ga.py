@@ -118,6 +118,12 @@ class OneStepGA:
 
     Raises:
         ParameterError: ``rng`` is not a generator, or an unknown or bad option.
+
+    Attributes:
+        branch_lock: ``None`` (search every branch, the default) or one branch: every individual of the
+            next generations is bred on that branch (coherent preview keeps an imaginary arm on the
+            real arm's elbow branch). Setting it draws no random numbers, so a GA with ``None`` behaves
+            exactly as before.
     """
 
     def __init__(
@@ -151,6 +157,7 @@ class OneStepGA:
         self._peak_branch = np.zeros(0, dtype=int)
         self._pending_genes = np.zeros((0, self.g))
         self._pending_branch = np.zeros(0, dtype=int)
+        self.branch_lock: int | None = None
 
     # ------------------------------------------------------------------------------- state
 
@@ -173,6 +180,16 @@ class OneStepGA:
     def population_genes(self) -> Array:
         """``(P, g)`` genes of the current population (a copy)."""
         return self._genes.copy()
+
+    @property
+    def population_q(self) -> Array:
+        """``(P, nq)`` configurations of the current population (a copy; unreachable rows are placeholders)."""
+        return self._Q.copy()
+
+    @property
+    def population_branch(self) -> NDArray[np.int_]:
+        """``(P,)`` branches of the current population (a copy)."""
+        return self._branch.copy()
 
     @property
     def population_S(self) -> Array:  # noqa: N802 -- the paper's symbol S
@@ -269,6 +286,8 @@ class OneStepGA:
     def _breed(self) -> tuple[Array, NDArray[np.int_]]:
         """The next generation's genes and branches (the pending seeds are used up)."""
         genes, branch = self._next_population()
+        if self.branch_lock is not None:
+            branch = np.full_like(branch, self.branch_lock)
         self._pending_genes, self._pending_branch = np.zeros((0, self.g)), np.zeros(0, dtype=int)
         return genes, branch
 

@@ -1,0 +1,87 @@
+"""Preview control over seeds: every controller on a scene, seeds 0..N-1, one table per scene.
+
+For each (scene, controller): how many seeds finished collision-free, the median time of the first
+collision (over the seeds that collided), the worst hand error over all seeds, and the mean S over
+the runs. Runs go to a process pool (``--jobs``, default: the number of cores).
+
+Run: ``python benchmarks/bench_preview.py [--seeds 10] [--controllers none,multi,...] [scenario.toml ...]``
+(default scenes: the shipped planar scenes). ``--set key=value`` overrides a controller parameter,
+e.g. ``--set coherent=false`` for the paper-literal eqs. 20/21.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from previewctl.control.params import CONTROLLER_NAMES
+from previewctl.sim.loop import simulate
+from previewctl.sim.paper import shipped_scenarios_dir
+from previewctl.sim.scenario import Scenario, load_scenario
+
+DEFAULT_SCENES = ("paper_planar.toml",)
+
+
+def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:
+    """``scenario`` with controller parameters overridden from ``key=value`` strings."""
+    params = scenario.controller.params
+    typed: dict[str, object] = {}
+    for key, text in settings.items():
+        current = getattr(params, key)
+        typed[key] = text.lower() == "true" if isinstance(current, bool) else type(current)(text)
+    return dataclasses.replace(
+        scenario, controller=dataclasses.replace(scenario.controller, params=dataclasses.replace(params, **typed))
+    )
+
+
+def run_one(job: tuple[str, str, int, dict[str, str]]) -> tuple[str, str, int, dict[str, float]]:
+    """One run: ``(scene path, controller, seed, overrides)`` -> its outcome."""
+    path, controller, seed, settings = job
+    result = simulate(_override(load_scenario(path), settings), controller, seed=seed)
+    summary = result.summary()
+    S = np.asarray(result.S)
+    return path, controller, seed, {
+        "collided": float(summary["collided"]),
+        "collision_time": float(summary["collision_time"]) if summary["collided"] else np.nan,
+        "max_hand_error": float(summary["max_hand_error"]),
+        "mean_S": float(np.mean(S[S > 0])) if np.any(S > 0) else 0.0,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", help="scenario files (default: the shipped planar scenes)")
+    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
+    parser.add_argument("--controllers", default=",".join(CONTROLLER_NAMES), help="comma-separated list")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="controller parameter")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes")
+    args = parser.parse_args()
+    scenes = [str(Path(s)) for s in args.scenes] or [str(shipped_scenarios_dir() / s) for s in DEFAULT_SCENES]
+    settings = dict(item.split("=", 1) for item in args.set)
+    controllers = args.controllers.split(",")
+    jobs = [(s, c, seed, settings) for s in scenes for c in controllers for seed in range(args.seeds)]
+    outcomes: dict[tuple[str, str], list[dict[str, float]]] = {}
+    with ProcessPoolExecutor(args.jobs) as pool:
+        for path, controller, _, outcome in pool.map(run_one, jobs):
+            outcomes.setdefault((path, controller), []).append(outcome)
+    for scene in scenes:
+        print(f"\n{Path(scene).name}, seeds 0-{args.seeds - 1}{', ' + str(settings) if settings else ''}")
+        print(f"{'controller':<10}{'collision-free':>16}{'first collision (median)':>26}{'max hand error':>16}"
+              f"{'mean S':>9}")
+        for controller in controllers:
+            rows = outcomes[(scene, controller)]
+            free = sum(r["collided"] == 0.0 for r in rows)
+            times = [r["collision_time"] for r in rows if r["collided"]]
+            first = f"{np.median(times):.2f} s" if times else "-"
+            error = max(r["max_hand_error"] for r in rows) * 1e3
+            mean_S = np.mean([r["mean_S"] for r in rows])
+            print(f"{controller:<10}{f'{free} / {len(rows)}':>16}{first:>26}{error:>13.2f} mm{mean_S:>9.0f}")
+
+
+if __name__ == "__main__":
+    main()

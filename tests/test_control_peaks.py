@@ -1,0 +1,149 @@
+"""Tests of :mod:`previewctl.control.peaks` and the coherent preview mode: peak identity, the GA's
+branch lock, blends within one family, and the paper-literal mode unchanged."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from previewctl.control.params import ControllerParams, ControllerSpec
+from previewctl.control.peaks import PeakTracker
+from previewctl.control.preview import wrapped_difference
+from previewctl.index.evaluator import Evaluator
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.model import Robot
+from previewctl.search.ga import OneStepGA
+from previewctl.sim.log import RunResult
+from previewctl.sim.loop import simulate
+from previewctl.sim.paper import canonical_scenario
+
+
+def _options(*pairs: tuple[list[float], float]) -> tuple[np.ndarray, np.ndarray]:
+    """A search's individuals ``Q`` and their ``S`` from ``(q, S)`` pairs."""
+    return np.array([q for q, _ in pairs], dtype=float), np.array([S for _, S in pairs], dtype=float)
+
+
+def _tracker(**options: float) -> PeakTracker:
+    settings = {"track_radius": 0.5, "settle_frames": 4, **options}
+    return PeakTracker(lambda Q: Q, np.ones(4, dtype=bool), **settings)  # type: ignore[arg-type]
+
+
+A, B = [0.5, 1.0, -1.0, 0.5], [2.0, -1.0, 1.0, -0.5]  # two peaks far apart in joint space
+
+
+def test_peak_identity_survives_a_small_perturbation_of_the_landscape() -> None:
+    tracker = _tracker()
+    first = tracker.update(*_options((A, 100.0), (B, 120.0)), np.array(A) + 0.1)
+    assert first is not None and np.allclose(first.q, A)  # the arm's own basin, not the best peak
+    # the landscape shifts a little and B edges ahead: keep A's identity
+    moved = [a + 0.05 for a in A]
+    second = tracker.update(*_options((B, 115.0), (moved, 100.0)), np.array(A))
+    assert second is not None and np.allclose(second.q, moved) and not second.switched
+
+
+def test_a_better_peak_in_another_basin_does_not_take_over() -> None:
+    tracker = _tracker()
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
+    kept = tracker.update(*_options((A, 100.0), (B, 400.0)), np.array(A))
+    assert kept is not None and np.allclose(kept.q, A) and not kept.switched
+
+
+def test_the_best_individual_near_the_last_target_carries_the_peak() -> None:
+    tracker = _tracker()
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
+    climbed = [a + 0.2 for a in A]  # within track_radius, and better: the same peak, moved uphill
+    chosen = tracker.update(*_options((A, 100.0), (climbed, 110.0), (B, 120.0)), np.array(A))
+    assert chosen is not None and np.allclose(chosen.q, climbed) and not chosen.switched
+
+
+def test_a_lost_peak_is_replaced_by_the_nearest_survivor_not_the_best() -> None:
+    tracker = _tracker()
+    tracker.update(*_options((A, 100.0)), np.array(A))
+    near = [a + 0.7 for a in A]  # beyond track_radius: A is lost
+    chosen = tracker.update(*_options((B, 500.0), (near, 50.0)), np.array(A))
+    assert chosen is not None and np.allclose(chosen.q, near) and chosen.switched
+
+
+def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> None:
+    tracker = _tracker(settle_frames=4)
+    ramps = [tracker.update(*_options((A, 100.0)), np.array(A)).ramp for _ in range(6)]  # type: ignore[union-attr]
+    assert ramps == [0.0, 0.25, 0.5, 0.75, 1.0, 1.0]
+    assert tracker.update(*_options((A, -1.0)), np.array(A)) is None
+
+
+def test_branch_lock_breeds_every_individual_on_one_branch(planar4: Robot) -> None:
+    ga = OneStepGA(planar4, Evaluator(planar4), PlanarRedundancy(planar4), np.random.default_rng(3))
+    ga.branch_lock = 1
+    for _ in range(5):
+        ga.step(np.array([0.85, 0.65]), 0.0)
+    assert np.all(ga.population_branch == 1)
+    assert ga.peaks() and all(p.branch == 1 for p in ga.peaks())
+    _, solved = PlanarRedundancy(planar4).genes_of(np.array([p.q for p in ga.peaks()]))
+    assert np.all(solved == 1)
+
+
+def test_unlocked_ga_is_unchanged_by_the_lock_attribute(planar4: Robot) -> None:
+    runs = []
+    for lock in (False, True):
+        ga = OneStepGA(planar4, Evaluator(planar4), PlanarRedundancy(planar4), np.random.default_rng(5))
+        if lock:
+            ga.branch_lock = None
+        for _ in range(4):
+            best = ga.step(np.array([0.85, 0.65]), 0.0)
+        runs.append((best.q, ga.population_genes))
+    assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+
+
+def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar4: Robot) -> None:
+    q = np.array([0.3, 0.4, 0.2, -2.9])
+    target = np.array([0.3, 0.4, 0.2, 2.9])
+    wrapped = wrapped_difference(planar4, q, target)
+    kept = wrapped_difference(planar4, q, target, keep=(3,))
+    assert wrapped[3] == pytest.approx(5.8 - 2 * np.pi)  # the short way: through the fold q4 = ±π
+    assert kept[3] == pytest.approx(5.8)  # through q4 = 0, the stretched wrist
+    # on the way, q4 = 0 is crossed: the straight line q + s * kept passes it for s in (0, 1)
+    s = -q[3] / kept[3]
+    assert 0.0 < s < 1.0
+
+
+def _short(name: str, coherent: bool, duration: float = 3.0) -> RunResult:
+    scenario = canonical_scenario()
+    params = dataclasses.replace(scenario.controller.params, coherent=coherent)
+    scenario = dataclasses.replace(
+        scenario,
+        controller=ControllerSpec(name, params),
+        timing=dataclasses.replace(scenario.timing, duration=duration),
+    )
+    return simulate(scenario, name, seed=0)
+
+
+def test_coherent_multi_keeps_every_imaginary_arm_on_the_arms_branch(planar4: Robot) -> None:
+    run = _short("multi", coherent=True)
+    red = PlanarRedundancy(planar4)
+    _, arm_branch = red.genes_of(np.asarray(run.q))
+    targets = np.asarray(run.targets)
+    for i in range(targets.shape[1]):
+        _, branch = red.genes_of(targets[:, i])
+        assert np.array_equal(branch, arm_branch), f"imaginary arm {i} left the arm's branch"
+    # and the blend of same-branch targets is on that branch too: q4 keeps the arm's sign
+    blend = np.einsum("i,kij->kj", np.array(ControllerParams().weights), targets)
+    assert np.all(np.sign(blend[:, 3]) == np.sign(np.asarray(run.q)[:, 3]))
+
+
+def test_paper_literal_mode_reproduces_the_earlier_numbers() -> None:
+    """Final states of 2 s runs measured on the code before the coherent mode existed (commit 74c8822)."""
+    expected = {
+        "single": (
+            [2.0846967344853375, -2.0701491960356195, -3.5014025394206705, -2.0981358516907154], 6098.114509488421
+        ),
+        "multi": ([1.856542568169394, -1.9532411518477506, -3.249357064929832, -2.00864364315927], 7372.09706020939),
+    }
+    expected["reach"] = (
+        [1.5565944196780397, -1.7879554910765183, -3.1033333144848654, -1.8190763811678305], 7103.2697696369105
+    )
+    for name, (q_end, S_end) in expected.items():
+        run = _short(name, coherent=False, duration=3.0 if name == "reach" else 2.0)
+        assert np.asarray(run.q)[-1] == pytest.approx(q_end, abs=1e-12)
+        assert float(np.asarray(run.S)[-1]) == pytest.approx(S_end, rel=1e-12)
