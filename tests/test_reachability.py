@@ -24,13 +24,17 @@ LINK = 0.75  # [m], planar4's links
 RADIUS = 0.03  # [m], its capsules
 
 
-def planar3_urdf(tmp: Path) -> Path:
-    """planar4 without its last link: a 3-joint planar arm (one gene)."""
+def planar3_urdf(tmp: Path, limits: tuple[tuple[float, float], ...] | None = None) -> Path:
+    """planar4 without its last link: a 3-joint planar arm (one gene); optionally other joint limits [rad]."""
     text = (shipped_robots_dir() / "planar4.urdf").read_text()
     start = text.index('<joint name="joint4"')
     end = text.index('<joint name="tip_joint"')
     text = text[:start] + text[end:].replace('<parent link="link4"/>', '<parent link="link3"/>', 1)
-    out = tmp / "planar3.urdf"
+    if limits is not None:
+        full = 'lower="-6.283185307179586" upper="6.283185307179586"'
+        for lo, hi in limits:
+            text = text.replace(full, f'lower="{lo!r}" upper="{hi!r}" ', 1)
+    out = tmp / ("planar3.urdf" if limits is None else "planar3_limited.urdf")
     out.write_text(text.replace('name="planar4"', 'name="planar3"'))
     return out
 
@@ -67,7 +71,12 @@ def sweep_radii(robot: Robot) -> Array:
 
 
 class Brute:
-    """Every path through the tiny grid, enumerated explicitly, with transitions checked pair by pair."""
+    """Every path through the tiny grid, enumerated explicitly, in unwrapped joint space.
+
+    A state is a joint vector within the limits: genes on the grid over their limits, ``q_(n-1)`` one of
+    the values ``a + 2 pi m`` the closed form allows, ``q_n`` the signed elbow angle (no wrapping
+    anywhere). Transitions are checked pair by pair with plain differences.
+    """
 
     def __init__(self, robot: Robot, evaluator: Evaluator, path: HandPath, q0: Array, duration: float,
                  opts: ReachOptions) -> None:
@@ -75,59 +84,61 @@ class Brute:
         g, n = red.g, robot.nq
         N, h = opts.steps, np.radians(opts.resolution_deg)
         dt = duration / N
-        count = round(360 / opts.resolution_deg)
-        axis = np.arange(count) * 2 * np.pi / count
+        lo, hi = robot.lower_limits, robot.upper_limits
+        axis = lo[0] + np.arange(int(np.floor((hi[0] - lo[0]) / h + 1e-9)) + 1) * h  # same limits on every gene
         delta = robot.velocity_limits * opts.velocity_scale * dt
         cap = min(opts.max_step_cells, int(np.floor(delta[0] / h + 1e-9))) * h
         rho = sweep_radii(robot)
         self.times = np.arange(N + 1) * dt
-        # constant-velocity or static obstacles: the travel per step is |v| dt
+        self.count = round(2 * np.pi / h)  # cells per gene of the figures' [0, 360) grid
         travel = max((float(np.linalg.norm(np.diff(o.motion.positions([0.0, 1.0]), axis=0))) * dt
                       for o in evaluator.scene.obstacles), default=0.0)
-        # every cell of every layer: genes, branch, q, signed elbow, distances, S
+        beta0 = float(np.abs(wrap_angle(q0[n - 1])) * (1 if q0[n - 1] >= 0 else -1))
         genes = np.array(list(itertools.product(axis, repeat=g))) if g else np.zeros((1, 0))
-        self.genes = np.concatenate([genes, genes])
-        self.branch = np.repeat([0, 1], len(genes))
-        self.layers = []
+        gene_index = np.array(list(itertools.product(range(len(axis)), repeat=g))) if g else np.zeros((1, 0), int)
+        self.layers = []  # per time: dict of state arrays
         for t in self.times:
-            Q, ok = red.solve(self.genes, self.branch, path.position(t))
-            S = np.full(len(Q), -1.0)
-            d = np.full((len(Q), len(robot.guarded_links)), -np.inf)
-            ev = evaluator(Q[ok], t)
-            S[ok], d[ok] = ev.S, ev.link_distances
-            beta = np.abs(wrap_angle(Q[:, n - 1])) * np.where(self.branch == 0, 1, -1)
-            self.layers.append((Q, beta, d, S, ok & (opts.s_min < S)))
-        ev0 = evaluator(q0, 0.0)
-        genes0 = wrap_angle(q0[:g])
-        beta0 = q0[n - 1]
-        self.q0_S = float(ev0.S[0])
+            rows = []
+            for branch in (0, 1):
+                Q, ok = red.solve(genes, np.full(len(genes), branch), path.position(t))
+                S = np.full(len(Q), -1.0)
+                d = np.full((len(Q), len(robot.guarded_links)), -np.inf)
+                ev = evaluator(Q[ok], t)
+                S[ok], d[ok] = ev.S, ev.link_distances
+                beta = np.abs(wrap_angle(Q[:, n - 1])) * (1 if branch == 0 else -1)
+                a = wrap_angle(Q[:, n - 2])
+                for m in (-2, -1, 0, 1, 2):
+                    u = a + 2 * np.pi * m
+                    keep = ok & (opts.s_min < S) & (u >= lo[n - 2] - 1e-9) & (u <= hi[n - 2] + 1e-9)
+                    keep &= (beta >= lo[n - 1] - 1e-9) & (beta <= hi[n - 1] + 1e-9)
+                    for i in np.flatnonzero(keep):
+                        rows.append((genes[i], gene_index[i], branch, u[i], beta[i], d[i], S[i]))
+            self.layers.append({
+                "genes": np.array([r[0] for r in rows]).reshape(len(rows), g),
+                "index": np.array([r[1] for r in rows]).reshape(len(rows), g),
+                "branch": np.array([r[2] for r in rows], dtype=int),
+                "u": np.array([r[3] for r in rows]),
+                "beta": np.array([r[4] for r in rows]),
+                "d": np.array([r[5] for r in rows]).reshape(len(rows), len(robot.guarded_links)),
+                "S": np.array([r[6] for r in rows]),
+            })
 
-        def allowed(ga: Array, qa: Array, ba: Array, da: Array, gb: Array, qb: Array, bb: Array, db: Array) -> Array:
-            """Pairwise: sources a (rows) to destinations b (columns)."""
-            dgene = np.abs(wrap_angle(gb[None, :, :] - ga[:, None, :]))  # (A, B, g)
-            dq1 = np.abs(wrap_angle(qb[None, :, n - 2] - qa[:, None, n - 2]))
-            dbeta = np.abs(bb[None, :] - ba[:, None])
-            ok = np.all(dgene <= cap + 1e-9, axis=2) & np.all(dgene <= delta[:g] + 1e-9, axis=2)
-            ok &= (dq1 <= delta[n - 2]) & (dbeta <= delta[n - 1])
-            moves = np.concatenate([dgene, dq1[..., None], dbeta[..., None]], axis=2)  # (A, B, n)
-            sweep = moves @ rho  # (A, B, L)
-            ok &= np.all(da[:, None, :] + db[None, :, :] > sweep + travel, axis=2)
+        def allowed(src: dict, dst: dict) -> Array:
+            dgene = np.abs(dst["genes"][None, :, :] - src["genes"][:, None, :])
+            du = np.abs(dst["u"][None, :] - src["u"][:, None])
+            dbeta = np.abs(dst["beta"][None, :] - src["beta"][:, None])
+            ok = np.all(dgene <= min(cap, delta[0]) + 1e-9, axis=2) & (du <= delta[n - 2]) & (dbeta <= delta[n - 1])
+            moves = np.concatenate([dgene, du[..., None], dbeta[..., None]], axis=2)
+            ok &= np.all(src["d"][:, None, :] + dst["d"][None, :, :] > moves @ rho + travel, axis=2)
             return ok
 
-        self.transitions = []
-        for k in range(N):
-            if k == 0:
-                src = (genes0[None], q0[None], np.array([beta0]), ev0.link_distances)
-            else:
-                Qa, ba, da, _, _ = self.layers[k]
-                src = (self.genes, Qa, ba, da)
-            Qb, bb, db, _, feas_b = self.layers[k + 1]
-            T = allowed(*src, self.genes, Qb, bb, db)
-            if k > 0:
-                T &= self.layers[k][4][:, None]
-            T &= feas_b[None, :]
-            self.transitions.append(T)
-        # enumerate every feasible path prefix, layer by layer
+        self.q0_S = float(evaluator(q0, 0.0).S[0])
+        start = {"genes": q0[None, :g], "u": q0[None, n - 2], "beta": np.array([beta0]),
+                 "d": evaluator(q0, 0.0).link_distances}
+        self.grid0 = allowed(self.layers[0], self.layers[1])
+        self.transitions = [allowed(start, self.layers[1])] + [
+            allowed(self.layers[k], self.layers[k + 1]) for k in range(1, N)
+        ]
         prefixes = [np.zeros((1, 0), dtype=np.int64)]
         current = np.zeros((1, 0), dtype=np.int64)
         for k in range(N):
@@ -142,43 +153,51 @@ class Brute:
 
     def scores(self, k: int) -> tuple[Array, Array]:
         paths = self.prefixes[k]
-        S = np.stack([self.layers[i + 1][3][paths[:, i]] for i in range(k)], axis=1)
+        S = np.stack([self.layers[i + 1]["S"][paths[:, i]] for i in range(k)], axis=1)
         return S.min(axis=1), S.sum(axis=1)
 
+    def q(self, k: int, state: int) -> Array:
+        layer = self.layers[k]
+        return np.concatenate([layer["genes"][state], [layer["u"][state], layer["beta"][state]]])
 
-def components(cells: set[int], genes_per_branch: int, g: int, count: int, beta: Array, cross: float) -> list[set[int]]:
-    """Connected components by breadth-first search (8-neighbours within a branch, branch switch where
-    |beta| <= cross on both sides)."""
-    def neighbours(c: int) -> list[int]:
-        b, p = divmod(c, genes_per_branch)
-        idx = np.unravel_index(p, (count,) * g)
-        out = []
-        for shift in itertools.product((-1, 0, 1), repeat=g):
-            if any(shift):
-                moved = tuple((i + s) % count for i, s in zip(idx, shift, strict=True))
-                out.append(b * genes_per_branch + int(np.ravel_multi_index(moved, (count,) * g)))
-        other = (1 - b) * genes_per_branch + p
-        if abs(beta[c]) <= cross and abs(beta[other]) <= cross:
-            out.append(other)
-        return out
+    def folded(self, k: int, states: set[int]) -> set[tuple[int, ...]]:
+        """The figures' cells ``(branch, i_1, ...)`` over [0, 360) of these states."""
+        layer = self.layers[k]
+        step = 2 * np.pi / self.count
+        return {(int(layer["branch"][s]), *(int(v) for v in np.rint(np.mod(layer["genes"][s], 2 * np.pi) / step)
+                                               .astype(int) % self.count)) for s in states}
 
-    left, found = set(cells), []
+
+def components(brute: Brute, k: int, states: set[int], cross: float) -> list[set[int]]:
+    """Connected components by breadth-first search: gene-grid neighbours on one branch, or the two branches
+    of one cell where |beta| <= cross on both, and q_(n-1) within pi (the short way)."""
+    layer = brute.layers[k]
+    index, branch, u, beta = layer["index"], layer["branch"], layer["u"], layer["beta"]
+
+    def adjacent(a: int, b: int) -> bool:
+        if abs(u[a] - u[b]) > np.pi:
+            return False
+        step = np.abs(index[a] - index[b]).max(initial=0)
+        if branch[a] == branch[b]:
+            return step == 1
+        return step == 0 and abs(beta[a]) <= cross and abs(beta[b]) <= cross
+
+    left, found = set(states), []
     while left:
         seed = left.pop()
         comp, todo = {seed}, [seed]
         while todo:
-            for nb in neighbours(todo.pop()):
-                if nb in left:
-                    left.remove(nb)
-                    comp.add(nb)
-                    todo.append(nb)
+            here = todo.pop()
+            for other in [s for s in left if adjacent(here, s)]:
+                left.remove(other)
+                comp.add(other)
+                todo.append(other)
         found.append(comp)
     return found
 
 
-def flat(result: ReachResult, k: int, which: str) -> set[int]:
-    grid = getattr(result, which)[k].reshape(-1)
-    return set(np.flatnonzero(grid).tolist())
+def folded_result(result: ReachResult, k: int, which: str) -> set[tuple[int, ...]]:
+    return {tuple(int(v) for v in idx) for idx in np.argwhere(getattr(result, which)[k])}
 
 
 def check_against_brute(robot: Robot, scene: Scene, path: HandPath, q0: Array, duration: float,
@@ -192,14 +211,13 @@ def check_against_brute(robot: Robot, scene: Scene, path: HandPath, q0: Array, d
     assert (result.dead_end is None) == (K == N)
     if K < N:
         assert result.dead_end == pytest.approx(brute.times[K])
-    # forward reachable sets, layer by layer
-    for k in range(1, N + 1):
+    for k in range(1, N + 1):  # forward reachable sets, layer by layer
         expected = set(brute.prefixes[k][:, -1].tolist()) if len(brute.prefixes[k]) else set()
-        assert flat(result, k, "reachable") == expected, f"layer {k}"
+        assert folded_result(result, k, "reachable") == brute.folded(k, expected), f"layer {k}"
     if K == 0:
         assert np.isnan(result.best_min_S)
         return result
-    # best bottleneck, then best total among the bottleneck-optimal paths
+    # best bottleneck, then best total among the bottleneck-optimal paths; the motion is one of them
     mins, sums = brute.scores(K)
     s_star = mins.max()
     assert result.best_min_S == pytest.approx(s_star, rel=1e-12)
@@ -207,33 +225,37 @@ def check_against_brute(robot: Robot, scene: Scene, path: HandPath, q0: Array, d
     motion = result.motion
     assert motion.min_S == pytest.approx(s_star, rel=1e-12)
     assert motion.total_S == pytest.approx(best_total, rel=1e-9)
-    # the motion is one of the enumerated paths
-    cells = tuple(motion.cells[1:].tolist())
-    assert cells in {tuple(p) for p in brute.prefixes[K].tolist()}
-    # viable tube, end families and commit time (when a motion exists)
-    if K == N:
+    best_paths = brute.prefixes[K][(mins >= s_star) & (sums >= best_total - 1e-9 * abs(best_total))]
+    assert any(np.allclose(motion.q[1:], [brute.q(k + 1, s) for k, s in enumerate(p)], atol=1e-9) for p in best_paths)
+    np.testing.assert_allclose(motion.q[0], q0)
+    if K == N:  # viable tube, end families and commit time
         full = brute.prefixes[N]
         for k in range(1, N + 1):
-            assert flat(result, k, "viable") == set(full[:, k - 1].tolist()), f"viable layer {k}"
-        ends = set(full[:, -1].tolist())
-        per_branch = len(brute.genes) // 2
-        g = robot.nq - 2
-        count = round(360 / opts.resolution_deg)
-        comps = components(ends, per_branch, g, count, brute.layers[N][1], np.radians(opts.cross_adjacency_deg))
-        assert len(result.end_families) == len(comps)
+            assert folded_result(result, k, "viable") == brute.folded(k, set(full[:, k - 1].tolist())), f"viable {k}"
+        comps = components(brute, N, set(full[:, -1].tolist()), np.radians(opts.cross_adjacency_deg))
         assert sorted(f.cells for f in result.end_families) == sorted(len(c) for c in comps)
         label = {c: i for i, comp in enumerate(comps) for c in comp}
         family_of_path = np.array([label[c] for c in full[:, -1]])
         shared = [len(comps) >= 2]  # q0 reaches every end family
         for k in range(1, N + 1):
-            many = False
-            for cell in set(full[:, k - 1].tolist()):
-                if len(set(family_of_path[full[:, k - 1] == cell].tolist())) >= 2:
-                    many = True
-                    break
-            shared.append(many)
+            column = full[:, k - 1]
+            shared.append(any(len(set(family_of_path[column == c].tolist())) >= 2 for c in set(column.tolist())))
         expected = max((k for k in range(N + 1) if shared[k]), default=None)
         assert result.commit_time == (None if expected is None else pytest.approx(brute.times[expected]))
+    if opts.start_families:
+        comps = components(brute, 0, set(range(len(brute.layers[0]["S"]))), np.radians(opts.cross_adjacency_deg))
+        assert sorted(f.cells for f in result.start_families) == sorted(len(c) for c in comps)
+        for comp in comps:
+            alive = np.zeros(len(brute.layers[0]["S"]), dtype=bool)
+            alive[list(comp)] = True
+            last = 0
+            for k in range(N):
+                alive = (brute.grid0 if k == 0 else brute.transitions[k])[alive].any(axis=0)
+                if alive.any():
+                    last = k + 1
+            # the family of the same size whose lifetime matches (sizes can repeat)
+            assert any(f.cells == len(comp) and f.alive_until == pytest.approx(brute.times[last])
+                       and f.finishes == (last == N) for f in result.start_families)
     return result
 
 
@@ -249,6 +271,18 @@ def test_planar3_matches_brute_force(planar3: Robot) -> None:
     result = check_against_brute(planar3, scene, path, q0, 5.5, opts)
     assert result.exists
     assert list(result.gene_cells) == [2]  # floor(1.1 rad / 30 deg)
+
+
+def test_planar3_narrow_joint_limits(tmp_path: Path) -> None:
+    """Joint limits narrower than a turn (q1 in [-2.5, 3], q2 in [-3.5, 0.5]): the limits cut states and
+    motions exactly as the enumeration in unwrapped joint space says."""
+    robot = load_robot(str(planar3_urdf(tmp_path, ((-2.5, 3.0), (-3.5, 0.5), (-6.2, 6.2)))))
+    path = HandPath(np.array([[1.2, 0.6], [0.9, 1.0]]), 5.5)
+    scene = Scene((Obstacle("disc", Sphere(0.25), Static(np.array([0.2, 1.1, 0.0]))),))
+    q0 = start_on_path(robot, path, (0.3,), 0)
+    opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
+    result = check_against_brute(robot, scene, path, q0, 5.5, opts)
+    assert np.all(result.motion.q >= robot.lower_limits - 1e-9) and np.all(result.motion.q <= robot.upper_limits + 1e-9)
 
 
 def test_planar3_moving_obstacle_and_dead_end(planar3: Robot) -> None:
@@ -281,8 +315,9 @@ def test_planar4_matches_brute_force(planar4: Robot, case: str) -> None:
     path = HandPath(np.array([start, end]), 3.2)
     scene = Scene(tuple(Obstacle(f"disc{i}", Sphere(r), Static(np.array([*c, 0.0]))) for i, (r, c) in enumerate(discs)))
     q0 = start_on_path(planar4, path, genes, branch)
-    opts = ReachOptions(resolution_deg=45.0, steps=4, max_step_cells=3)
+    opts = ReachOptions(resolution_deg=45.0, steps=4, max_step_cells=3, start_families=True)
     result = check_against_brute(planar4, scene, path, q0, 3.2, opts)
+    assert result.start_families and sum(f.holds_q0 is True for f in result.start_families) == 1
     if case == "two_end_families":
         assert result.exists and len(result.end_families) == 2 and result.commit_time == pytest.approx(1.6)
     elif case == "dead_end":

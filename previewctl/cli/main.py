@@ -1,4 +1,4 @@
-"""Command line: ``previewctl {robots,index,map,run,paper}``. Bad input -> one line on stderr, exit 2."""
+"""Command line: ``previewctl {robots,index,map,run,paper,reach-map}``. Bad input -> one line on stderr, exit 2."""
 
 from __future__ import annotations
 
@@ -10,8 +10,10 @@ from previewctl.cli.common import EXIT_USAGE, ArgumentParser, add_evaluation_opt
 from previewctl.cli.index import cmd_index
 from previewctl.cli.map import cmd_map
 from previewctl.cli.paper import cmd_paper
+from previewctl.cli.reach_map import add_reach_map_parser
 from previewctl.cli.robots import cmd_robots
 from previewctl.cli.run import cmd_run
+from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.errors import PreviewctlError
 
 
@@ -51,8 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
         "(run.npz, summary.json) and the figures go to --out.",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
-    run.add_argument("--controller", choices=("none", "gradient", "single", "multi", "reach"),
-                     help="override the scenario's controller")
+    run.add_argument("--controller", choices=CONTROLLER_NAMES,
+                     help="override the scenario's controller ('oracle': non-causal, follows the reachability "
+                     "DP's best motion, see reach-map)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     run.add_argument("--continue-after-collision", action="store_true",
@@ -93,6 +96,8 @@ def build_parser() -> argparse.ArgumentParser:
     map_.add_argument("--seed", type=int, default=0, help="random shift of the samples (default 0)")
     add_evaluation_options(map_)
     map_.set_defaults(func=cmd_map)
+
+    add_reach_map_parser(sub)
     return parser
 
 

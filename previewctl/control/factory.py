@@ -1,4 +1,4 @@
-"""Building a controller by name: ``none``, ``gradient``, ``single``, ``multi`` or ``reach``."""
+"""Building a controller by name: ``none``, ``gradient``, ``single``, ``multi``, ``reach``, ``oracle`` (non-causal)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
 
-ControllerName = Literal["none", "gradient", "single", "multi", "reach"]
+ControllerName = Literal["none", "gradient", "single", "multi", "reach", "oracle"]
 
 
 def make_controller(
@@ -45,6 +45,10 @@ def make_controller(
         return TrackingController(robot, params)
     if spec.name == "gradient":
         return GradientController(robot, evaluator, params)
+    if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command
+        from previewctl.control.oracle import OracleController
+
+        return OracleController(robot, params, evaluator)
     mode = "multi" if spec.name == "reach" else spec.name
     count = len(params.preview_weights(mode))
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)

@@ -9,7 +9,8 @@ from typing import Any
 
 from previewctl.errors import ConfigurationError
 
-CONTROLLER_NAMES: tuple[str, ...] = ("none", "gradient", "single", "multi", "reach")
+CONTROLLER_NAMES: tuple[str, ...] = ("none", "gradient", "single", "multi", "reach", "oracle")
+"""``oracle`` is non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
 PREVIEW_MODES: tuple[str, ...] = ("single", "multi", "reach")
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""

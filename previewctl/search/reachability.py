@@ -5,8 +5,15 @@ configuration" and answers by looking at the AMSIP maps at ten times (Fig. 8, Ta
 answers it exactly on a grid, for planar arms, offline and non-causally (it reads the whole future):
 
 * **Space.** The redundancy grid of :class:`~previewctl.planar.redundancy.PlanarRedundancy`: the
-  genes ``q_1 .. q_(n-2)`` on a ``h``-degree grid (periodic genes over ``[0, 360)``) x the two elbow
-  branches; the last two joints in closed form, so every cell puts the hand on the path.
+  genes ``q_1 .. q_(n-2)`` on a ``h``-degree grid x the two elbow branches; the last two joints in
+  closed form, so every cell puts the hand on the path. Joint limits hold along every motion: a
+  gene's grid runs over its joint limits (planar4: ``[-360°, 360°]``, so a grid value *is* the joint
+  value; only a gene without finite limits gets a periodic ``[0, 360)`` axis), ``q_n = β + c`` with the
+  signed elbow angle ``β`` in ``[-π, π]`` never wraps, and ``q_(n-1)``, which the closed form gives
+  modulo 2π as ``a`` in ``[-π, π)``, is carried by a *state* ``(cell, m)``: the arm is at ``a + 2π m``,
+  and only the representatives within the joint's limits exist. (Without this a motion can wind a
+  ``±2π`` joint past its limit: the first version's best motion on ``paper_planar`` took ``q_3`` to
+  ``-400°``, and a controller following it was stopped by the limit.)
 * **Time.** ``N`` steps of ``Δt = duration / N`` [s]; layer ``k`` holds the cells at ``t_k = t_0 + k Δt``
   with the obstacles and the hand target of that time. Layer 0 of the dynamic programme is the
   start configuration ``q0`` itself (not a grid cell); the grid at ``t_0`` is only used for the
@@ -17,11 +24,12 @@ answers it exactly on a grid, for planar arms, offline and non-causally (it read
   1. joint speed (every joint, the closed-form last two included): ``|Δq_j| <= δ_j = v_j Δt``
      with ``v_j`` the URDF speed limit x ``velocity_scale`` [rad/s]. Genes move by whole cells,
      ``|Δi_a| <= r_a = min(floor(δ_a / h), max_step_cells)``: the cap ``max_step_cells`` bounds the
-     work, and it is a further (reported) restriction when ``r_a h < δ_a``. ``q_(n-1)`` is compared
-     modulo 2π when its joint turns a full circle. The elbow is compared through its signed
-     angle ``β`` (branch 0: ``β >= 0``, branch 1: ``β < 0``; ``q_n = β + const``) *without* wrapping,
-     so an elbow switch can only pass the stretched wrist ``β = 0`` (``|β| + |β'| <= δ_n``), never
-     the folded one (``β = ±π``).
+     work, and it is a further (reported) restriction when ``r_a h < δ_a``. ``q_(n-1)`` moves the
+     short way, ``Δ = wrap(a' - a)``, ``|Δ| <= δ_(n-1)``, its representative following (``m' = m``, or
+     ``m ± 1`` when the short way crosses ``±π``), and the new state must exist (within the limits).
+     The elbow is compared through ``β`` (branch 0: ``β >= 0``, branch 1: ``β < 0``) *without*
+     wrapping, so an elbow switch can only pass the stretched wrist ``β = 0``
+     (``|β| + |β'| <= δ_n``), never the folded one (``β = ±π``).
   2. the continuous motion between the samples: the arm is taken to move linearly in joint space
      from ``c`` at ``t_k`` to ``c'`` at ``t_(k+1)``. A point of guarded capsule ``l`` then moves by at most
      ``B_l = Σ_j |Δq_j| ρ_jl`` [m], with ``ρ_jl`` the largest distance from joint ``j`` to that capsule
@@ -39,7 +47,11 @@ answers it exactly on a grid, for planar arms, offline and non-causally (it read
   and collision-free for the guarded links. A "no" is relative to the grid, the time step and the
   step cap: the DP is resolution-complete, not complete.
 
-The programme, over stored edge lists (one per step, built once):
+The programme, over stored edge lists (one per step, built once, between states):
+
+Every quantity below is per state (cell and representative); the figures fold states onto cells
+over ``[0, 360)``. Layer ``k + 1`` is evaluated only at the cells one step away from the states
+reachable at layer ``k`` (a lazy forward sweep: the DP from ``q0`` never needs the rest).
 
 * **(a) existence.** ``W_k(c)`` = the best bottleneck ``max over motions q0 -> c of min_(1<=i<=k) S_i``
   (forward max-min; ``-inf`` when ``c`` is not reachable). A motion to the end exists iff some
@@ -69,6 +81,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -107,6 +120,11 @@ class ReachOptions:
         obstacle_substeps: samples per step used to bound the obstacles' speed.
         cross_adjacency_deg: the two elbow branches of one grid cell count as adjacent (one family)
             where the elbow angle ``|β|`` is at most this [deg] (the stretched wrist).
+        map_times: how many whole-grid S maps to keep for the figures (spread over the layers; 0: none).
+            Arms with one gene keep every layer's map.
+        start_families: also find the start families (components at ``t_0`` and their fate). This
+            evaluates the whole grid at every time and connects every feasible cell, which the DP from
+            ``q0`` otherwise avoids (it evaluates only the cells one step away from the reachable set).
     """
 
     resolution_deg: float = 2.0
@@ -116,6 +134,8 @@ class ReachOptions:
     velocity_scale: float = 1.0
     obstacle_substeps: int = 8
     cross_adjacency_deg: float = 10.0
+    map_times: int = 10
+    start_families: bool = False
 
     def __post_init__(self) -> None:
         """Validate every field.
@@ -126,7 +146,7 @@ class ReachOptions:
         if not (isinstance(self.resolution_deg, (int, float)) and math.isfinite(self.resolution_deg)
                 and 0 < self.resolution_deg <= 90):
             raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {self.resolution_deg!r}")
-        for name, low in (("steps", 1), ("max_step_cells", 1), ("obstacle_substeps", 1)):
+        for name, low in (("steps", 1), ("max_step_cells", 1), ("obstacle_substeps", 1), ("map_times", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
@@ -137,6 +157,8 @@ class ReachOptions:
         if not (isinstance(self.cross_adjacency_deg, (int, float)) and 0 <= self.cross_adjacency_deg <= 180):
             raise ConfigurationError(
                 f"cross_adjacency_deg must lie in [0, 180] [deg], got {self.cross_adjacency_deg!r}")
+        if not isinstance(self.start_families, bool):
+            raise ConfigurationError(f"start_families must be true or false, got {self.start_families!r}")
 
 
 @dataclass(frozen=True)
@@ -211,13 +233,16 @@ class ReachResult:
 
     Attributes:
         times: ``(N + 1,)`` layer times [s].
-        axes: one ``(n_a,)`` axis [rad] per gene.
-        shape: grid shape ``(2, n_1, ..., n_g)``.
-        S_maps: ``(N + 1, 2, n_1, ..., n_g)`` AMSIP per layer (float32; ``collision_value`` where
-            unreachable).
-        reachable: ``(N + 1, 2, n_1, ...)`` cells reachable from ``q0`` (layer 0: none; ``q0`` is layer 0).
-        viable: ``(N + 1, 2, n_1, ...)`` reachable cells from which the motion can still be continued
-            to ``t_K`` (the end, or the dead end).
+        axes: the DP's gene axes [rad], one per gene (over the joint limits when they are finite).
+        map_axes: the figures' axes, ``[0, 2π)`` per gene like the paper's maps.
+        shape: the figures' grid shape ``(2, n_1, ..., n_g)`` over ``map_axes``.
+        map_layers: the layers whose whole S map is kept (see ``ReachOptions.map_times``).
+        S_maps: ``(len(map_layers), 2, n_1, ..., n_g)`` AMSIP at those layers over ``map_axes``
+            (float32; ``collision_value`` where unreachable).
+        reachable: ``(N + 1, 2, n_1, ...)`` over ``map_axes``: cells some state of which (a representative
+            of the joint values, see the module docstring) is reachable from ``q0`` (layer 0: none).
+        viable: ``(N + 1, 2, n_1, ...)`` likewise for the states from which the motion can still be
+            continued to ``t_K`` (the end, or the dead end).
         exists: whether a collision-free motion from ``q0`` to ``t_N`` exists (in the DP's model).
         dead_end: when it does not, the last time [s] the arm can still be at (``t_0``: not even one
             step); ``None`` when it does.
@@ -227,19 +252,24 @@ class ReachResult:
         end_families: components at ``t_K`` reachable from ``q0`` (``t_K``: the end, or the dead end).
         commit_time: the last time [s] at which the arm can still reach two end families
             (``None`` with fewer than two).
-        start_families: components of the feasible cells at ``t_0``.
+        start_families: components of the feasible cells at ``t_0`` (only with
+            ``ReachOptions.start_families``).
         dt: time step [s].
         joint_step: ``(n,)`` per-step joint bound ``δ_j`` [rad] (``inf``: no limit).
         gene_cells: ``(g,)`` gene cells per step ``r_a``.
-        edges: number of allowed transitions per step ``(N,)``.
-        timings: wall-clock seconds per stage (``maps``, ``edges``, ``dp``, ``families``) and in all
-            (``total``), and the process CPU seconds (``cpu``; on a shared machine the fairer figure).
+        edges: number of allowed transitions between states per step ``(K,)``.
+        timings: wall-clock seconds per stage (``maps``: evaluating S on the layers; ``edges``: the
+            transitions; ``dp``: the passes, families and commit time; ``extras``: the figures' whole maps
+            and the start families) and in all (``total``), and the process CPU seconds (``cpu``; on a
+            shared machine the fairer figure).
         options: the options used.
     """
 
     times: Array
     axes: tuple[Array, ...]
+    map_axes: tuple[Array, ...]
     shape: tuple[int, ...]
+    map_layers: tuple[int, ...]
     S_maps: NDArray[np.float32]
     reachable: BoolArray
     viable: BoolArray
@@ -263,6 +293,60 @@ class ReachResult:
         """The largest gene speed [rad/s] the transition model allows, ``r_a h / Δt``, per gene."""
         return np.asarray(self.gene_cells * math.radians(self.options.resolution_deg) / self.dt, dtype=float)
 
+    def summary(self) -> dict[str, Any]:
+        """The figures of merit as plain JSON-ready values (angles in degrees, times in seconds)."""
+
+        def family(f: Family) -> dict[str, Any]:
+            row: dict[str, Any] = {
+                "label": f.label,
+                "cells": f.cells,
+                "peak_genes_deg": [round(float(v), 3) for v in np.degrees(f.peak_genes)],
+                "peak_branch": f.peak_branch,
+                "peak_S": f.peak_S,
+            }
+            for key in ("alive_until", "finishes", "shared_until", "best_min_S", "holds_q0"):
+                value = getattr(f, key)
+                if value is not None:
+                    row[key] = value
+            return row
+
+        motion = self.motion
+        switches = np.flatnonzero(np.diff(motion.branch) != 0)
+        return {
+            "verdict": self.verdict(),
+            "exists": self.exists,
+            "dead_end": self.dead_end,
+            "best_min_S": None if not np.isfinite(self.best_min_S) else self.best_min_S,
+            "q0_S": self.q0_S,
+            "commit_time": self.commit_time,
+            "end_families": [family(f) for f in self.end_families],
+            "start_families": [family(f) for f in self.start_families],
+            "motion": {
+                "times": [float(t) for t in motion.times],
+                "q_deg": np.round(np.degrees(motion.q), 4).tolist(),
+                "S": [float(v) for v in motion.S],
+                "branch": [int(b) for b in motion.branch],
+                "min_S": None if not np.isfinite(motion.min_S) else motion.min_S,
+                "total_S": motion.total_S,
+                "elbow_switch_times": [float(0.5 * (motion.times[k] + motion.times[k + 1])) for k in switches],
+            },
+            "grid": {
+                "resolution_deg": self.options.resolution_deg,
+                "gene_axes_deg": [[round(math.degrees(float(a[0])), 4), round(math.degrees(float(a[-1])), 4), len(a)]
+                                  for a in self.axes],
+                "map_shape": list(self.shape),
+                "steps": len(self.times) - 1,
+                "dt": self.dt,
+                "joint_step_deg": [None if not np.isfinite(v) else round(math.degrees(v), 4) for v in self.joint_step],
+                "gene_cells_per_step": [int(r) for r in self.gene_cells],
+                "gene_speed_deg_s": [round(math.degrees(v), 4) for v in self.gene_speed],
+                "s_min": self.options.s_min,
+                "velocity_scale": self.options.velocity_scale,
+            },
+            "edges": int(self.edges.sum()),
+            "timings_s": {key: round(value, 4) for key, value in self.timings.items()},
+        }
+
     def verdict(self) -> str:
         """One line: whether a motion exists, else where the arm gets stuck."""
         if self.exists:
@@ -272,47 +356,57 @@ class ReachResult:
         return f"no collision-free tracking motion from q0: every motion is stuck by t = {self.dead_end:g} s"
 
 
-# ------------------------------------------------------------------------------------- layers
-
-
-@dataclass(frozen=True)
-class _Layer:
-    """The feasible cells of one layer, compactly (``m`` cells)."""
-
-    t: float
-    S_map: NDArray[np.float32]  # (2 C,)
-    cells: IntArray  # (m,) flat indices, increasing
-    lut: NDArray[np.int32]  # (2 C,) rank of a flat index among ``cells``, -1 if infeasible
-    gene_index: IntArray  # (m, g)
-    branch: NDArray[np.int32]  # (m,)
-    q: Array  # (m, n)
-    q1: Array  # (m,) q_(n-1) [rad], contiguous
-    beta: Array  # (m,)
-    d_t: Array  # (L, m) capsule distances [m], one contiguous row per capsule
-    S: Array  # (m,)
-    beta_map: Array  # (2 C,) signed elbow angle where reachable, nan elsewhere
+# ------------------------------------------------------------------------------------- model
 
 
 @dataclass(frozen=True)
 class _Model:
-    """Transition model constants."""
+    """Grid and transition-model constants."""
 
-    shape: tuple[int, ...]  # (n_1, ..., n_g)
-    cells: int  # C
-    periodic: BoolArray  # (g,)
-    h: float  # [rad]
+    shape: tuple[int, ...]  # (n_1, ..., n_g) of the DP's gene grid
+    cells: int  # C = n_1 ... n_g
+    periodic: BoolArray  # (g,) genes without finite limits: axis over [0, 2 pi), wrapped
+    h: float  # grid step [rad]
     delta: Array  # (n,) per-step joint bound [rad]
-    r: IntArray  # (g,)
-    rho: Array  # (n, L)
-    wrap_elbow1: bool  # q_(n-1) compared modulo 2 pi
-    offsets: IntArray  # (K, g)
-    offset_sweep: Array  # (K, L) Σ_a |o_a| h ρ_al
-    neighbours: NDArray[np.int32]  # (K, C) gene-flat index of cell + offset (-1 off a non-periodic edge)
+    r: IntArray  # (g,) gene cells per step
+    rho: Array  # (n, L) sweep radii [m]
+    offsets: IntArray  # (K, g) gene offsets of one step
+    offset_sweep: Array  # (K, L) Σ_a |o_a| h ρ_al [m]
+    strides: IntArray  # (g,) of the flat gene index
+    q1_periodic: bool  # q_(n-1) without finite limits: compared modulo 2 pi, one representative
+    reps: IntArray  # (M,) shifts m of the representatives a + 2 pi m of q_(n-1) (a in [-pi, pi))
+    q1_limits: tuple[float, float]  # [rad]
+    elbow_offset: float  # c: q_n = beta + c along every motion from q0 [rad]
+    qn_limits: tuple[float, float]  # [rad]
+
+    @property
+    def M(self) -> int:  # noqa: N802 -- the number of representatives, as in the docstring
+        return int(self.reps.size)
 
 
-def signed_elbow(red: PlanarRedundancy, Q: Array, branch: IntArray) -> Array:
+@dataclass(frozen=True)
+class _Layer:
+    """The feasible physical cells of one layer (``m`` of them) and which representatives are valid."""
+
+    t: float
+    cells: IntArray  # (m,) flat physical index b * C + gene, increasing
+    gene_index: IntArray  # (m, g)
+    branch: NDArray[np.int32]  # (m,)
+    genes: Array  # (m, g) gene values [rad] (the axis values: unwrapped for bounded genes)
+    q1: Array  # (m,) q_(n-1) wrapped to [-pi, pi) [rad]
+    beta: Array  # (m,) signed elbow angle [rad]
+    d_t: Array  # (L, m) capsule distances [m]
+    S: Array  # (m,)
+    valid: BoolArray  # (m, M) representative m of q_(n-1) within the joint limits
+
+    @property
+    def states(self) -> int:
+        return int(self.valid.size)
+
+
+def signed_elbow(red: PlanarRedundancy, Q: Array, branch: NDArray[np.integer[Any]]) -> Array:
     """Signed elbow angle ``β`` [rad] of configurations ``(B, n)`` on ``branch`` ``(B,)``: ``|β|`` in [0, π],
-    positive on branch 0 and negative on branch 1 (``q_n = β + α_1 - α_2``)."""
+    positive on branch 0 and negative on branch 1 (``q_n = β + α_1 - α_2`` modulo 2π)."""
     magnitude = np.abs(wrap_angle(Q[:, red.n - 1] - red.alpha1 + red.alpha2))
     return np.where(branch == 0, magnitude, -magnitude)
 
@@ -321,10 +415,10 @@ def _sweep_radii(robot: Robot) -> Array:
     """``ρ`` ``(n, L)`` [m]: an upper bound on the distance from joint ``j`` to any point of guarded capsule
     ``l`` (0 when joint ``j`` does not move it), whatever the configuration."""
     chain = robot.planar
-    assert chain is not None  # checked by the caller
-    n = robot.nq
+    if chain is None:  # pragma: no cover - checked by the caller
+        raise PlanarOnlyError(f"robot {robot.name!r} is not planar")
     lengths = np.hypot(chain.offsets[:, 0], chain.offsets[:, 1])  # |offset_k|: joint k-1 -> joint k
-    rho = np.zeros((n, len(chain.link_joints)))
+    rho = np.zeros((robot.nq, len(chain.link_joints)))
     for l_idx, (carrier, segment, radius) in enumerate(
         zip(chain.link_joints, chain.link_segments, chain.link_radii, strict=True)
     ):
@@ -334,67 +428,109 @@ def _sweep_radii(robot: Robot) -> Array:
     return rho
 
 
-def _neighbour_table(shape: tuple[int, ...], periodic: BoolArray, offsets: IntArray) -> NDArray[np.int32]:
-    """``(K, C)`` flat gene index of every cell moved by every offset (periodic genes wrap; ``-1`` where a
-    non-periodic gene leaves its range)."""
-    C = int(np.prod(shape)) if shape else 1
-    if not shape:
-        return np.zeros((len(offsets), 1), dtype=np.int32)
-    index = np.stack(np.unravel_index(np.arange(C), shape), axis=1)  # (C, g)
-    moved = index[None, :, :] + offsets[:, None, :]  # (K, C, g)
-    valid = np.ones(moved.shape[:2], dtype=bool)
-    for a, size in enumerate(shape):
-        if periodic[a]:
-            moved[..., a] %= size
-        else:
-            valid &= (moved[..., a] >= 0) & (moved[..., a] < size)
-            np.clip(moved[..., a], 0, size - 1, out=moved[..., a])
-    flat = np.ravel_multi_index(tuple(moved[..., a] for a in range(len(shape))), shape)
-    return np.where(valid, flat, -1).astype(np.int32)
+def _bounded(lo: float, hi: float) -> bool:
+    return bool(np.isfinite(lo) and np.isfinite(hi))
 
 
-def _grid_axes(red: PlanarRedundancy, h: float) -> tuple[Array, ...]:
+def _gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolArray]:
+    """The DP's gene axes [rad]: over the joint limits when they are finite (so a gene's value along a
+    motion is the joint's own value, limits included), else periodic over ``[0, 2π)``."""
     axes: list[Array] = []
-    for lo, hi, per in zip(red.gene_lower, red.gene_upper, red.periodic, strict=True):
-        if per:
+    periodic: list[bool] = []
+    for lo, hi in zip(red.lower[: red.g], red.upper[: red.g], strict=True):
+        if _bounded(lo, hi):
+            count = int(np.floor((hi - lo) / h + 1e-9)) + 1
+            axes.append(lo + np.arange(count) * h)
+            periodic.append(False)
+        else:
             count = max(1, round(TWO_PI / h))
             axes.append(np.arange(count, dtype=np.float64) * (TWO_PI / count))
+            periodic.append(True)
+    return tuple(axes), np.array(periodic, dtype=bool)
+
+
+def _map_axes(g: int, h: float) -> tuple[Array, ...]:
+    """The figures' axes: ``[0, 2π)`` per gene, like the paper's maps."""
+    count = max(1, round(TWO_PI / h))
+    return tuple(np.arange(count, dtype=np.float64) * (TWO_PI / count) for _ in range(g))
+
+
+def _targets(model: _Model, gene_index: IntArray, offset: IntArray) -> tuple[IntArray, BoolArray]:
+    """Flat gene index of ``gene_index + offset`` ``(m,)`` and whether it lies on the grid."""
+    flat = np.zeros(gene_index.shape[0], dtype=np.int64)
+    ok = np.ones(gene_index.shape[0], dtype=bool)
+    for a, size in enumerate(model.shape):
+        index = gene_index[:, a] + offset[a]
+        if model.periodic[a]:
+            index %= size
         else:
-            count = max(1, int(np.floor((hi - lo) / h + 1e-9)) + 1)
-            axes.append(lo + np.arange(count) * h)
-    return tuple(axes)
+            ok &= (index >= 0) & (index < size)
+            np.clip(index, 0, size - 1, out=index)
+        flat += index * model.strides[a]
+    return flat, ok
 
 
-def _layer(red: PlanarRedundancy, evaluator: Evaluator, axes: tuple[Array, ...], target: Array, t: float,
-           s_min: float) -> _Layer:
-    """Solve and score the whole grid at time ``t`` [s]; keep the cells with ``S > s_min``."""
-    if axes:
-        Q, reach = red.solve_grid(axes, target)
-    else:  # a two-link arm: one cell per branch
-        Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
-    total = Q.shape[0]
-    C = total // 2
-    S = np.full(total, evaluator.potential.collision_value)
-    L = len(evaluator.robot.guarded_links)
-    d = np.full((total, L), -np.inf)
+def _layer(red: PlanarRedundancy, evaluator: Evaluator, model: _Model, axes: tuple[Array, ...], target: Array,
+           t: float, s_min: float, candidates: IntArray | None) -> _Layer:
+    """Solve and score the ``candidates`` (flat physical indices; ``None``: the whole grid) at ``t`` [s]; keep
+    the feasible ones: reachable, ``S > s_min``, ``q_n`` and some representative of ``q_(n-1)`` within limits."""
+    C = model.cells
+    if candidates is None:
+        index = np.arange(2 * C, dtype=np.int64)
+        if axes:
+            Q, reach = red.solve_grid(axes, target)
+        else:
+            Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
+    else:
+        index = np.asarray(candidates, dtype=np.int64)
+        genes = (np.stack([axes[a][i] for a, i in enumerate(np.unravel_index(index % C, model.shape))], axis=1)
+                 if axes else np.zeros((index.size, 0)))
+        Q, reach = red.solve(genes, index // C, target)
+    S = np.full(index.size, evaluator.potential.collision_value)
+    d = np.full((index.size, len(evaluator.robot.guarded_links)), -np.inf)
     if reach.any():
         ev = evaluator(Q[reach], t)
         S[reach], d[reach] = ev.S, ev.link_distances
-    branch_all = np.repeat(np.arange(2), C)
-    beta_map = np.where(reach, signed_elbow(red, Q, branch_all), np.nan)
-    feasible = reach & (s_min < S)
-    cells = np.flatnonzero(feasible).astype(np.int64)
-    lut = np.full(total, -1, dtype=np.int32)
-    lut[cells] = np.arange(cells.size, dtype=np.int32)
-    shape = tuple(len(a) for a in axes)
-    gene_index = (np.stack(np.unravel_index(cells % C, shape), axis=1).astype(np.int64) if axes
+    branch_all = (index // C).astype(np.int32)
+    beta = signed_elbow(red, Q, branch_all)
+    q1 = wrap_angle(Q[:, red.n - 2])
+    ok = reach & (s_min < S)
+    lo_n, hi_n = model.qn_limits
+    ok &= (beta + model.elbow_offset >= lo_n - 1e-9) & (beta + model.elbow_offset <= hi_n + 1e-9)
+    if model.q1_periodic:
+        valid = np.ones((index.size, 1), dtype=bool)
+    else:
+        lo, hi = model.q1_limits
+        u = q1[:, None] + TWO_PI * model.reps[None, :]
+        valid = (u >= lo - 1e-9) & (u <= hi + 1e-9)
+    ok &= valid.any(axis=1)
+    keep = np.flatnonzero(ok)
+    cells = index[keep]
+    gene_index = (np.stack(np.unravel_index(cells % C, model.shape), axis=1).astype(np.int64) if axes
                   else np.zeros((cells.size, 0), dtype=np.int64))
-    return _Layer(
-        t=float(t), S_map=S.astype(np.float32), cells=cells, lut=lut, gene_index=gene_index,
-        branch=(cells // C).astype(np.int32), q=Q[cells], q1=np.ascontiguousarray(Q[cells, red.n - 2]),
-        beta=beta_map[cells], d_t=np.ascontiguousarray(d[cells].T), S=S[cells],
-        beta_map=beta_map,
-    )
+    genes = (np.stack([axes[a][gene_index[:, a]] for a in range(len(axes))], axis=1) if axes
+             else np.zeros((cells.size, 0)))
+    return _Layer(t=float(t), cells=cells, gene_index=gene_index, branch=branch_all[keep], genes=genes,
+                  q1=q1[keep], beta=beta[keep], d_t=np.ascontiguousarray(d[keep].T), S=S[keep], valid=valid[keep])
+
+
+def _lut(layer: _Layer, C: int) -> NDArray[np.int32]:
+    """Row of each flat physical index in ``layer`` (``-1``: not a feasible cell)."""
+    lut = np.full(2 * C, -1, dtype=np.int32)
+    lut[layer.cells] = np.arange(layer.cells.size, dtype=np.int32)
+    return lut
+
+
+def _dilate(model: _Model, layer: _Layer, rows: IntArray) -> IntArray:
+    """Flat physical indices (both branches) within one step's gene offsets of ``layer``'s ``rows``."""
+    C = model.cells
+    mask = np.zeros(C, dtype=bool)
+    gene_index = layer.gene_index[rows]
+    for offset in model.offsets:
+        flat, ok = _targets(model, gene_index, offset)
+        mask[flat[ok]] = True
+    genes = np.flatnonzero(mask)
+    return np.concatenate([genes, genes + C])
 
 
 def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float:
@@ -415,7 +551,7 @@ def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float
 
 
 def _step_ok(model: _Model, dst: _Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
-             src_d: Array, travel: float) -> BoolArray:
+             src_d: Array, travel: float) -> tuple[BoolArray, NDArray[np.int8]]:
     """The joint-speed and sweep conditions of ``P`` candidate steps into rows ``d_rows`` of ``dst``.
 
     Args:
@@ -423,15 +559,21 @@ def _step_ok(model: _Model, dst: _Layer, d_rows: IntArray, gene_sweep: Array, sr
         dst: the destination layer.
         d_rows: ``(P,)`` destination rows.
         gene_sweep: ``(P, L)`` [m], the genes' share of the sweep bound ``B_l``.
-        src_q1: ``(P,)`` the sources' ``q_(n-1)`` [rad].
+        src_q1: ``(P,)`` the sources' ``q_(n-1)`` [rad] (wrapped, or a start value).
         src_beta: ``(P,)`` the sources' signed elbow angles [rad].
         src_d: ``(L, P)`` the sources' capsule distances [m] (a source may be ``q0``).
         travel: bound [m] on the obstacles' motion during the step.
+
+    Returns:
+        ``ok`` ``(P,)`` and the representative shift ``(P,)`` of each step: ``q_(n-1)`` moves the short
+        way, ``u' = u + wrap(a' - a)``, so representative ``m`` of the source goes to ``m + shift``.
     """
     g = model.periodic.size
-    d_q1 = dst.q1[d_rows] - src_q1
-    if model.wrap_elbow1:
-        d_q1 -= TWO_PI * np.rint(d_q1 * (1.0 / TWO_PI))
+    a_dst = dst.q1[d_rows]
+    d_q1 = wrap_angle(a_dst - src_q1)
+    shift = np.zeros(d_rows.size, dtype=np.int8)
+    if not model.q1_periodic:
+        shift = np.rint((src_q1 + d_q1 - a_dst) * (1.0 / TWO_PI)).astype(np.int8)
     np.abs(d_q1, out=d_q1)
     d_beta = np.abs(dst.beta[d_rows] - src_beta)
     ok = (d_q1 <= model.delta[g]) & (d_beta <= model.delta[g + 1])
@@ -442,14 +584,14 @@ def _step_ok(model: _Model, dst: _Layer, d_rows: IntArray, gene_sweep: Array, sr
         if model.rho[g + 1, l_idx]:
             bound = bound + d_beta * model.rho[g + 1, l_idx]
         ok &= src_d[l_idx] + dst.d_t[l_idx, d_rows] > bound
-    return ok
+    return ok, shift
 
 
 @dataclass(frozen=True)
 class _Edges:
-    """The allowed transitions of one step, in groups (one per gene offset and branch choice) within
-    which every source row and every destination row occurs at most once, so a group is applied with
-    plain fancy indexing (``out[dst] = max(out[dst], value[src])``) instead of the slower ``ufunc.at``."""
+    """The allowed transitions of one step between *states* (``row * M + m``), in groups within which every
+    source and every destination occurs at most once, so a group is applied with plain fancy indexing
+    (``out[dst] = max(out[dst], value[src])``) instead of the slower ``ufunc.at``."""
 
     src: NDArray[np.int32]
     dst: NDArray[np.int32]
@@ -492,102 +634,134 @@ class _Edges:
         return out
 
 
-def _grid_edges(model: _Model, src: _Layer, dst: _Layer, travel: float) -> _Edges:
-    """Allowed transitions from the feasible cells of ``src`` to those of ``dst``, one group per gene offset
-    (same branch) and per gene offset and elbow switch (sources near the stretched wrist)."""
+def _expand(model: _Model, src: _Layer, dst: _Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
+            src_states: BoolArray | None) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
+    """Physical steps ``rows -> d_rows`` (unique on both sides) as state edges, one group per source
+    representative: ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state
+    in ``src_states`` when given)."""
+    M = model.M
+    out = []
+    for m in range(M):
+        m_dst = m + shift.astype(np.int64)
+        ok = src.valid[rows, m] & (m_dst >= 0) & (m_dst < M)
+        ok[ok] &= dst.valid[d_rows[ok], m_dst[ok]]
+        s_state = rows * M + m
+        if src_states is not None:
+            ok &= src_states[s_state]
+        out.append(((s_state[ok]).astype(np.int32), (d_rows[ok] * M + m_dst[ok]).astype(np.int32)))
+    return out
+
+
+def _grid_edges(model: _Model, src: _Layer, dst: _Layer, travel: float, src_states: BoolArray | None) -> _Edges:
+    """Allowed transitions from the states of ``src`` (those in ``src_states``, or all) to those of ``dst``: one
+    group per gene offset (same branch) and per gene offset and elbow switch (sources near the stretched
+    wrist), split by source representative."""
     g = model.periodic.size
     C = model.cells
-    gene_flat = (src.cells % C).astype(np.int32)
-    near = np.flatnonzero(np.abs(src.beta) <= model.delta[g + 1]).astype(np.int32)
-    sources = [(np.arange(src.cells.size, dtype=np.int32), src.branch * C)]
+    lut = _lut(dst, C)
+    every = (np.arange(src.cells.size, dtype=np.int64) if src_states is None
+             else np.flatnonzero(src_states.reshape(-1, model.M).any(axis=1)))
+    near = every[np.abs(src.beta[every]) <= model.delta[g + 1]]
+    sources = [(every, src.branch[every].astype(np.int64) * C)]
     if near.size:
-        sources.append((near, (1 - src.branch[near]) * C))
-    out_s: list[NDArray[np.int32]] = []
-    out_d: list[NDArray[np.int32]] = []
+        sources.append((near, (1 - src.branch[near].astype(np.int64)) * C))
+    groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]] = []
     for candidates, base in sources:
-        flat_genes = gene_flat[candidates]
-        for k in range(len(model.offsets)):
-            target = model.neighbours[k][flat_genes]
-            d_rows = dst.lut[base + target]
-            hit = d_rows >= 0
-            if not model.periodic.all():
-                hit &= target >= 0
-            rows = candidates[hit]
-            d_rows = d_rows[hit]
+        gene_index = src.gene_index[candidates]
+        for k, offset in enumerate(model.offsets):
+            flat, on_grid = _targets(model, gene_index, offset)
+            d_rows = lut[base + flat].astype(np.int64)
+            hit = (d_rows >= 0) & on_grid
+            rows, d_rows = candidates[hit], d_rows[hit]
             sweep = np.broadcast_to(model.offset_sweep[k], (rows.size, model.rho.shape[1]))
-            ok = _step_ok(model, dst, d_rows, sweep, src.q1[rows], src.beta[rows], src.d_t[:, rows], travel)
-            out_s.append(rows[ok])
-            out_d.append(d_rows[ok])
-    sizes = np.array([0] + [x.size for x in out_s], dtype=np.int64)
-    return _Edges(np.concatenate(out_s), np.concatenate(out_d), np.cumsum(sizes))
+            ok, shift = _step_ok(model, dst, d_rows, sweep, src.q1[rows], src.beta[rows], src.d_t[:, rows], travel)
+            groups += _expand(model, src, dst, rows[ok], d_rows[ok], shift[ok], src_states)
+    return _pack(groups)
 
 
-def _start_edges(model: _Model, axes: tuple[Array, ...], q0: Array, beta0: float, d0: Array, dst: _Layer,
-                 travel: float) -> NDArray[np.int32]:
-    """Destination rows of ``dst`` reachable from ``q0`` in one step."""
+def _pack(groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]]) -> _Edges:
+    if not groups:
+        return _Edges(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64))
+    sizes = np.array([0] + [s.size for s, _ in groups], dtype=np.int64)
+    return _Edges(np.concatenate([s for s, _ in groups]), np.concatenate([d for _, d in groups]), np.cumsum(sizes))
+
+
+def _start_states(model: _Model, q0: Array, beta0: float, d0: Array, dst: _Layer, travel: float) -> IntArray:
+    """States of ``dst`` reachable from ``q0`` in one step (``q0``'s genes and ``q_(n-1)`` are its own
+    unwrapped values)."""
     g = model.periodic.size
     rows = np.arange(dst.cells.size, dtype=np.int64)
     gene_sweep = np.zeros((rows.size, model.rho.shape[1]))
     ok = np.ones(rows.size, dtype=bool)
     for a in range(g):
-        value = axes[a][dst.gene_index[:, a]]
-        diff = value - q0[a]
+        diff = dst.genes[:, a] - q0[a]
         diff = np.abs(wrap_angle(diff) if model.periodic[a] else diff)
         ok &= diff <= model.r[a] * model.h + 1e-12
         gene_sweep += diff[:, None] * model.rho[a]
-    ok &= _step_ok(model, dst, rows, gene_sweep, np.full(rows.size, q0[g]), np.full(rows.size, beta0),
-                   np.repeat(np.asarray(d0, dtype=float)[:, None], rows.size, axis=1), travel)
-    return rows[ok].astype(np.int32)
+    step_ok, _ = _step_ok(model, dst, rows, gene_sweep, np.full(rows.size, q0[g]), np.full(rows.size, beta0),
+                          np.repeat(np.asarray(d0, dtype=float)[:, None], rows.size, axis=1), travel)
+    ok &= step_ok
+    rows = rows[ok]
+    if model.q1_periodic:
+        return rows
+    u = q0[g] + wrap_angle(dst.q1[rows] - q0[g])  # the short way from q0's own value
+    m = np.rint((u - dst.q1[rows]) / TWO_PI).astype(np.int64) - int(model.reps[0])
+    inside = (m >= 0) & (m < model.M)
+    inside[inside] &= dst.valid[rows[inside], m[inside]]
+    return rows[inside] * model.M + m[inside]
 
 
 # ------------------------------------------------------------------------------------ families
 
 
-def _components(layer: _Layer, mask: BoolArray, model: _Model, cross_beta: float) -> IntArray:
-    """Connected components of the layer's cells selected by ``mask`` ``(m,)``.
+def _components(layer: _Layer, states: BoolArray, model: _Model, cross_beta: float) -> IntArray:
+    """Connected components of the layer's ``states`` ``(m M,)`` (a mask over ``row * M + m``).
 
-    Adjacency: the 3^g - 1 grid neighbours within a branch (periodic genes wrap), and the two
-    branches of one grid cell where ``|β| <= cross_beta`` on both. Returns labels ``(m,)``: ``-1``
-    outside the mask, else ``0 .. K - 1`` by decreasing component size.
+    Two states are adjacent when their cells are grid neighbours (the 3^g - 1 of them, within a branch)
+    or the two branches of one cell with ``|β| <= cross_beta`` on both, and ``q_(n-1)`` takes the short way
+    between them (the same representative rule as a step). Returns labels ``(m M,)``: ``-1`` outside the
+    mask, else ``0 .. K - 1`` by decreasing component size.
     """
-    g = model.periodic.size
-    C = model.cells
-    rows = np.flatnonzero(mask)
-    labels = np.full(mask.size, -1, dtype=np.int64)
-    if rows.size == 0:
+    C, M, g = model.cells, model.M, model.periodic.size
+    labels = np.full(states.size, -1, dtype=np.int64)
+    chosen = np.flatnonzero(states)
+    if chosen.size == 0:
         return labels
-    selected = np.full(layer.lut.size, -1, dtype=np.int64)
-    selected[layer.cells[rows]] = rows
-    strides = np.array([int(np.prod(model.shape[a + 1 :])) for a in range(g)], dtype=np.int64)
+    rows = np.unique(chosen // M)
+    lut = np.full(2 * C, -1, dtype=np.int64)
+    lut[layer.cells[rows]] = rows
     us: list[IntArray] = []
     vs: list[IntArray] = []
+
+    def link(a_rows: IntArray, b_rows: IntArray) -> None:
+        shift = np.zeros(a_rows.size, dtype=np.int64)
+        if not model.q1_periodic:
+            a, b = layer.q1[a_rows], layer.q1[b_rows]
+            shift = np.rint((a + wrap_angle(b - a) - b) / TWO_PI).astype(np.int64)
+        for m in range(M):
+            m_b = m + shift
+            ok = (m_b >= 0) & (m_b < M)
+            u, v = a_rows[ok] * M + m, b_rows[ok] * M + m_b[ok]
+            keep = states[u] & states[v]
+            us.append(u[keep])
+            vs.append(v[keep])
+
     for offset in np.ndindex(*(3,) * g):
-        shift = np.array(offset, dtype=np.int64) - 1
-        nonzero = np.flatnonzero(shift)
-        if nonzero.size == 0 or shift[nonzero[0]] < 0:  # one of each opposite pair
+        step = np.array(offset, dtype=np.int64) - 1
+        nonzero = np.flatnonzero(step)
+        if nonzero.size == 0 or step[nonzero[0]] < 0:  # one of each opposite pair
             continue
-        valid = np.ones(rows.size, dtype=bool)
-        flat = np.zeros(rows.size, dtype=np.int64)
-        for a in range(g):
-            index = layer.gene_index[rows, a] + shift[a]
-            if model.periodic[a]:
-                index %= model.shape[a]
-            else:
-                valid &= (index >= 0) & (index < model.shape[a])
-                index = np.clip(index, 0, model.shape[a] - 1)
-            flat += index * strides[a]
-        other = selected[layer.branch[rows] * C + flat]
-        keep = valid & (other >= 0)
-        us.append(rows[keep])
-        vs.append(other[keep])
+        flat, on_grid = _targets(model, layer.gene_index[rows], step)
+        other = lut[layer.branch[rows].astype(np.int64) * C + flat]
+        hit = on_grid & (other >= 0)
+        link(rows[hit], other[hit])
     straight = rows[(layer.branch[rows] == 0) & (np.abs(layer.beta[rows]) <= cross_beta)]
-    partner = selected[layer.cells[straight] + C]
-    keep = partner >= 0
-    keep[keep] &= np.abs(layer.beta[partner[keep]]) <= cross_beta
-    us.append(straight[keep])
-    vs.append(partner[keep])
+    partner = lut[layer.cells[straight] + C]
+    hit = partner >= 0
+    hit[hit] &= np.abs(layer.beta[partner[hit]]) <= cross_beta
+    link(straight[hit], partner[hit])
     u, v = np.concatenate(us), np.concatenate(vs)
-    parent = np.arange(mask.size, dtype=np.int64)
+    parent = np.arange(states.size, dtype=np.int64)
     while True:  # hook roots onto the smaller root, then jump pointers to the roots
         ru, rv = parent[u], parent[v]
         differ = ru != rv
@@ -600,13 +774,11 @@ def _components(layer: _Layer, mask: BoolArray, model: _Model, cross_beta: float
             if np.array_equal(jumped, parent):
                 break
             parent = jumped
-    roots = parent[rows]
-    unique, inverse, counts = np.unique(roots, return_inverse=True, return_counts=True)
+    _, inverse, counts = np.unique(parent[chosen], return_inverse=True, return_counts=True)
     order = np.argsort(-counts, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
-    labels[rows] = rank[inverse]
-    del unique
+    labels[chosen] = rank[inverse]
     return labels
 
 
@@ -615,6 +787,14 @@ def _bits(labels: IntArray) -> NDArray[np.uint64]:
     capped = np.minimum(labels, MAX_FAMILY_BITS - 1)
     return np.where(labels >= 0, np.left_shift(np.uint64(1), np.maximum(capped, 0).astype(np.uint64)),
                     np.uint64(0)).astype(np.uint64)
+
+
+def _family_of(label: int, layer: _Layer, model: _Model, members: IntArray, **extra: object) -> Family:
+    """A family from its member states."""
+    rows = members // model.M
+    best = int(rows[int(np.argmax(layer.S[rows]))])
+    return Family(label=label, cells=int(members.size), peak_genes=layer.genes[best].copy(),
+                  peak_branch=int(layer.branch[best]), peak_S=float(layer.S[best]), **extra)  # type: ignore[arg-type]
 
 
 # --------------------------------------------------------------------------------------- main
@@ -637,7 +817,7 @@ def reach_over_time(
         evaluator: AMSIP evaluator (robot, scene, index, potential) -- the scene and hand target at
             each layer time are read from it and from ``path``.
         path: the desired hand path.
-        q0: start configuration ``(n,)`` [rad] at ``t_start``.
+        q0: start configuration ``(n,)`` [rad] at ``t_start`` (within the joint limits).
         duration: horizon [s]; layers at ``t_start + k duration / N``.
         options: grid and transition model.
         t_start: start time [s].
@@ -658,10 +838,16 @@ def reach_over_time(
     if g > 2:
         raise PlanarOnlyError(f"reach-map: planar arms of 2 to 4 joints only (robot {robot.name!r} has {n} joints, "
                               f"{g} genes: the grid would have {g} dimensions)")
-    if not (math.isfinite(duration) and duration > 0):
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise ConfigurationError(f"duration must be a positive number of seconds, got {duration!r}")
     Q0, _ = robot.check_configurations(q0)
     q0 = Q0[0]
+    lower, upper = robot.lower_limits, robot.upper_limits
+    outside = np.flatnonzero((q0 < lower - 1e-9) | (q0 > upper + 1e-9))
+    if outside.size:
+        j = int(outside[0])
+        raise ConfigurationError(f"q0: joint {j + 1} = {q0[j]:.6g} rad is outside its limits "
+                                 f"[{lower[j]:.6g}, {upper[j]:.6g}] rad")
     N = opts.steps
     dt = duration / N
     h = math.radians(opts.resolution_deg)
@@ -675,139 +861,146 @@ def reach_over_time(
         raise ConfigurationError(
             f"time step {dt:.4g} s lets joint {a + 1} move only {math.degrees(delta[a]):.3g} deg, less than the grid "
             f"step {opts.resolution_deg:g} deg: use fewer steps (now {N}) or a finer resolution")
-    axes = _grid_axes(red, h)
+    axes, periodic = _gene_axes(red, h)
     shape = tuple(len(a) for a in axes)
     offsets = (np.array(list(np.ndindex(*(2 * r + 1))), dtype=np.int64) - r if g
                else np.zeros((1, 0), dtype=np.int64))
     rho = _sweep_radii(robot)
-    model = _Model(
-        shape=shape, cells=int(np.prod(shape)) if g else 1, periodic=np.asarray(red.periodic, dtype=bool), h=h,
-        delta=delta, r=r, rho=rho,
-        wrap_elbow1=bool(red.upper[g] - red.lower[g] >= TWO_PI - 1e-9), offsets=offsets,
-        offset_sweep=(np.abs(offsets) * h) @ rho[:g] if g else np.zeros((1, rho.shape[1])),
-        neighbours=_neighbour_table(shape, np.asarray(red.periodic, dtype=bool), offsets),
-    )
-    times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
-    scene = evaluator.scene
-
-    # ---- maps
-    layers = [_layer(red, evaluator, axes, np.asarray(path.position(t), float), float(t), opts.s_min) for t in times]
-    t_maps = time.perf_counter()
-
-    # ---- edges
-    ev0 = evaluator(q0[None, :], float(times[0]))
-    q0_S = float(ev0.S[0])
     genes0, branch0 = red.genes_of(q0[None, :])
     beta0 = float(signed_elbow(red, q0[None, :], branch0)[0])
-    travel = [_obstacle_travel(scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps) for k in range(N)]
-    start_rows = _start_edges(model, axes, np.concatenate([genes0[0], q0[g:]]), beta0, ev0.link_distances[0],
-                              layers[1], travel[0])
-    grid0_edges = _grid_edges(model, layers[0], layers[1], travel[0])
-    edges = [grid0_edges] + [_grid_edges(model, layers[k], layers[k + 1], travel[k]) for k in range(1, N)]
-    # edges[0] is from the grid at t_0 (start families); q0 -> layer 1 is ``start_rows``
-    t_edges = time.perf_counter()
+    lo1, hi1 = float(lower[n - 2]), float(upper[n - 2])
+    q1_periodic = not _bounded(lo1, hi1)
+    reps = (np.zeros(1, dtype=np.int64) if q1_periodic else  # a + 2 pi m within [lo, hi] for some a in [-pi, pi)
+            np.arange(math.ceil((lo1 - np.pi) / TWO_PI), math.floor((hi1 + np.pi) / TWO_PI) + 1, dtype=np.int64))
+    model = _Model(
+        shape=shape, cells=int(np.prod(shape)) if g else 1, periodic=periodic, h=h, delta=delta, r=r, rho=rho,
+        offsets=offsets, offset_sweep=(np.abs(offsets) * h) @ rho[:g] if g else np.zeros((1, rho.shape[1])),
+        strides=np.array([int(np.prod(shape[a + 1 :])) for a in range(g)], dtype=np.int64),
+        q1_periodic=q1_periodic, reps=reps, q1_limits=(lo1, hi1),
+        elbow_offset=float(q0[n - 1] - beta0), qn_limits=(float(lower[n - 1]), float(upper[n - 1])),
+    )
+    M = model.M
+    times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
+    lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
+    clock = {"maps": 0.0, "edges": 0.0}
 
-    # ---- (a) forward max-min from q0
-    W: list[Array] = [np.array([np.inf])]
-    first = np.full(layers[1].cells.size, -np.inf)
-    first[start_rows] = layers[1].S[start_rows]
-    W.append(first)
+    def build(k: int, candidates: IntArray | None) -> _Layer:
+        tic = time.perf_counter()
+        layer = _layer(red, evaluator, model, axes, np.asarray(path.position(times[k]), float), float(times[k]),
+                       opts.s_min, candidates if lazy else None)
+        clock["maps"] += time.perf_counter() - tic
+        return layer
+
+    def connect(src: _Layer, dst: _Layer, k: int, states: BoolArray | None) -> _Edges:
+        tic = time.perf_counter()
+        edges = _grid_edges(model, src, dst, travel[k], states)
+        clock["edges"] += time.perf_counter() - tic
+        return edges
+
+    # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
+    ev0 = evaluator(q0[None, :], float(times[0]))
+    q0_S = float(ev0.S[0])
+    start_q = np.concatenate([np.where(periodic, genes0[0], q0[:g]), q0[g:]])  # bounded genes: q0's own values
+    travel = [_obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
+              for k in range(N)]
+    layers: list[_Layer] = [build(1, _start_box(model, axes, start_q))]  # layers[k - 1] is layer k
+    tic = time.perf_counter()
+    start = _start_states(model, start_q, beta0, ev0.link_distances[0], layers[0], travel[0])
+    clock["edges"] += time.perf_counter() - tic
+    W: list[Array] = [np.array([np.inf]), np.full(layers[0].states, -np.inf)]  # W[k]: layer k's states
+    W[1][start] = np.repeat(layers[0].S, M)[start]
+    hops: list[_Edges] = []  # hops[k - 1]: layer k -> k + 1
     for k in range(1, N):
-        W.append(np.minimum(edges[k].push_max(W[k], layers[k + 1].cells.size), layers[k + 1].S))
-    reached = [bool(np.any(w > -np.inf)) for w in W]
-    K = max(k for k in range(N + 1) if reached[k])
+        reached = W[k] > -np.inf
+        if not reached.any():
+            break
+        src = layers[k - 1]
+        dst = build(k + 1, _dilate(model, src, np.flatnonzero(reached.reshape(-1, M).any(axis=1))))
+        step = connect(src, dst, k, reached)
+        layers.append(dst)
+        hops.append(step)
+        W.append(np.minimum(step.push_max(W[k], dst.states), np.repeat(dst.S, M)))
+    K = max(k for k in range(len(W)) if np.any(W[k] > -np.inf))
     exists = K == N
+    layers, hops = layers[:K], hops[: max(K - 1, 0)]
 
     # ---- (c) best motion: max min S, then max total S
     if K >= 1:
         s_star = float(np.max(W[K]))
         Z: list[Array] = [np.zeros(0)] * (K + 1)
-        Z[K] = np.where(W[K] >= s_star, layers[K].S, -np.inf)
+        Z[K] = np.where(W[K] >= s_star, np.repeat(layers[K - 1].S, M), -np.inf)
         for k in range(K - 1, 0, -1):
-            best = edges[k].pull_max(Z[k + 1], layers[k].cells.size)
-            Z[k] = np.where(W[k] >= s_star, layers[k].S + best, -np.inf)
-        path_rows = [int(start_rows[int(np.argmax(Z[1][start_rows]))])]
+            best = hops[k - 1].pull_max(Z[k + 1], layers[k - 1].states)
+            Z[k] = np.where(W[k] >= s_star, np.repeat(layers[k - 1].S, M) + best, -np.inf)
+        states_path = [int(start[int(np.argmax(Z[1][start]))])]
         for k in range(1, K):
-            out = edges[k].dst[edges[k].src == path_rows[-1]]
-            path_rows.append(int(out[int(np.argmax(Z[k + 1][out]))]))
+            out = hops[k - 1].dst[hops[k - 1].src == states_path[-1]]
+            states_path.append(int(out[int(np.argmax(Z[k + 1][out]))]))
     else:
         s_star = float("nan")
-        path_rows = []
-    motion = _motion(model, layers, times, q0, q0_S, beta0, int(branch0[0]), path_rows)
-    t_dp = time.perf_counter()
+        states_path = []
+    motion = _motion(model, layers, times, q0, q0_S, int(branch0[0]), states_path)
 
     # ---- (b) end families (at t_K: the end, or the dead end), viable tube, commit time
-    reachable_masks = [np.zeros(0, dtype=bool)] + [w > -np.inf for w in W[1:]]
-    viable_masks = [np.zeros(layer.cells.size, dtype=bool) for layer in layers]
+    reachable = [W[k] > -np.inf for k in range(1, K + 1)]  # [k - 1]
+    viable = [np.zeros(layer.states, dtype=bool) for layer in layers]
     end_families: list[Family] = []
     commit_time: float | None = None
     if K >= 1:
-        labels = _components(layers[K], reachable_masks[K], model, math.radians(opts.cross_adjacency_deg))
+        labels = _components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
         A: list[NDArray[np.uint64]] = [np.zeros(0, dtype=np.uint64)] * (K + 1)
         A[K] = _bits(labels)
         for k in range(K - 1, 0, -1):
-            A[k] = np.where(reachable_masks[k], edges[k].pull_or(A[k + 1], layers[k].cells.size), np.uint64(0))
-        q0_bits = np.bitwise_or.reduce(A[1][start_rows])
+            A[k] = np.where(reachable[k - 1], hops[k - 1].pull_or(A[k + 1], layers[k - 1].states), np.uint64(0))
+        q0_bits = np.bitwise_or.reduce(A[1][start])
         counts = [np.bitwise_count(a) for a in A]
-        many = [False] + [bool(np.any(counts[k] >= 2)) for k in range(1, K + 1)]
-        many[0] = int(np.bitwise_count(q0_bits)) >= 2
+        many = [int(np.bitwise_count(q0_bits)) >= 2] + [bool(np.any(counts[k] >= 2)) for k in range(1, K + 1)]
         commit_time = float(times[max(k for k in range(K + 1) if many[k])]) if any(many) else None
         for k in range(1, K + 1):
-            viable_masks[k] = A[k] != 0
+            viable[k - 1] = A[k] != 0
         for label in range(int(labels.max()) + 1):
             members = np.flatnonzero(labels == label)
             bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
             when = [k for k in range(1, K + 1) if np.any(((A[k] & bit) != 0) & (counts[k] >= 2))]
             if not when and many[0]:
                 when = [0]
-            end_families.append(_family_of(label + 1, layers[K], members, axes,
+            end_families.append(_family_of(label + 1, layers[K - 1], model, members,
                                            shared_until=float(times[max(when)]) if when else None,
                                            best_min_S=float(np.max(W[K][members]))))
+    t_dp = time.perf_counter()
 
-    # ---- start families: components at t_0 and their fate
-    start_labels = _components(layers[0], np.ones(layers[0].cells.size, dtype=bool), model,
-                               math.radians(opts.cross_adjacency_deg))
-    start_families: list[Family] = []
-    if layers[0].cells.size:
-        F = _bits(start_labels)
-        alive = np.zeros(N + 1, dtype=np.uint64)
-        shared = np.zeros(N + 1, dtype=np.uint64)
-        alive[0] = np.bitwise_or.reduce(F)
-        for k in range(N):
-            F = edges[k].push_or(F, layers[k + 1].cells.size)
-            alive[k + 1] = np.bitwise_or.reduce(F) if F.size else np.uint64(0)
-            multi = F[np.bitwise_count(F) >= 2]
-            shared[k + 1] = np.bitwise_or.reduce(multi) if multi.size else np.uint64(0)
-        home = _nearest_cell(model, axes, genes0[0], int(branch0[0]))
-        home_row = int(layers[0].lut[home])
-        home_label = int(start_labels[home_row]) if home_row >= 0 else -1
-        for label in range(int(start_labels.max()) + 1 if start_labels.size else 0):
-            members = np.flatnonzero(start_labels == label)
-            bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
-            alive_k = [k for k in range(N + 1) if alive[k] & bit]
-            shared_k2 = [k for k in range(1, N + 1) if shared[k] & bit]
-            start_families.append(_family_of(
-                label + 1, layers[0], members, axes, alive_until=float(times[max(alive_k)]),
-                finishes=max(alive_k) == N, shared_until=float(times[max(shared_k2)]) if shared_k2 else None,
-                holds_q0=label == home_label))
-    t_families = time.perf_counter()
+    # ---- the figures' S maps (over [0, 360) per gene) and the start families (both need whole grids)
+    map_axes = _map_axes(g, h)
+    map_layers = tuple(range(N + 1)) if not lazy else _spread(N, opts.map_times)
+    S_maps = np.stack([_whole_map(red, evaluator, map_axes, np.asarray(path.position(times[k]), float),
+                                  float(times[k])) for k in map_layers]) if map_layers else np.zeros(0, np.float32)
+    start_families: tuple[Family, ...] = ()
+    if opts.start_families:
+        start_families = _start_families(model, axes, N, times, lambda k: build(k, None),
+                                         lambda s, d, k: connect(s, d, k, None), start_q, int(branch0[0]), opts)
+    t_extras = time.perf_counter()
 
-    full = (N + 1, 2, *shape)
+    fold = _fold_index(model, axes, map_axes)
+    folded_shape = (2, *(len(a) for a in map_axes))
 
-    def grid_of(masks: list[BoolArray]) -> BoolArray:
-        out = np.zeros((N + 1, 2 * model.cells), dtype=bool)
-        for k, (layer, mask) in enumerate(zip(layers, masks, strict=True)):
-            if mask.size:
-                out[k, layer.cells[mask]] = True
-        return out.reshape(full)
+    def folded(masks: list[BoolArray]) -> BoolArray:
+        out = np.zeros((N + 1, int(np.prod(folded_shape))), dtype=bool)
+        C_f = int(np.prod(folded_shape[1:]))
+        for k, (layer, mask) in enumerate(zip(layers, masks, strict=True), start=1):
+            rows = np.flatnonzero(mask.reshape(-1, M).any(axis=1))
+            cells = layer.cells[rows]
+            out[k, (cells // model.cells) * C_f + fold[cells % model.cells]] = True
+        return out.reshape((N + 1, *folded_shape))
 
     return ReachResult(
         times=times,
         axes=axes,
-        shape=(2, *shape),
-        S_maps=np.stack([layer.S_map for layer in layers]).reshape(full),
-        reachable=grid_of(reachable_masks),
-        viable=grid_of(viable_masks),
+        map_axes=map_axes,
+        shape=folded_shape,
+        map_layers=map_layers,
+        S_maps=S_maps.reshape((len(map_layers), *folded_shape)).astype(np.float32),
+        reachable=folded(reachable),
+        viable=folded(viable),
         exists=exists,
         dead_end=None if exists else float(times[K]),
         best_min_S=s_star,
@@ -815,16 +1008,16 @@ def reach_over_time(
         q0_S=q0_S,
         end_families=tuple(end_families),
         commit_time=commit_time,
-        start_families=tuple(start_families),
+        start_families=start_families,
         dt=dt,
         joint_step=delta,
         gene_cells=r,
-        edges=np.array([start_rows.size, *(e.size for e in edges[1:])], dtype=np.int64),
+        edges=np.array([start.size, *(e.size for e in hops)], dtype=np.int64),
         timings={
-            "maps": t_maps - started,
-            "edges": t_edges - t_maps,
-            "dp": t_dp - t_edges,
-            "families": t_families - t_dp,
+            "maps": clock["maps"],
+            "edges": clock["edges"],
+            "dp": t_dp - started - clock["maps"] - clock["edges"],
+            "extras": t_extras - t_dp,
             "total": time.perf_counter() - started,
             "cpu": time.process_time() - cpu_started,
         },
@@ -832,30 +1025,115 @@ def reach_over_time(
     )
 
 
-def _nearest_cell(model: _Model, axes: tuple[Array, ...], genes: Array, branch: int) -> int:
-    """Flat index of the grid cell nearest to ``genes`` on ``branch``."""
-    flat = 0
+def _spread(N: int, count: int) -> tuple[int, ...]:
+    """``count`` layer indices spread evenly over ``0 .. N`` (the paper's Fig. 8 shows ten times)."""
+    if count <= 0:
+        return ()
+    return tuple(sorted({round(float(k)) for k in np.linspace(0, N, min(count, N + 1))}))
+
+
+def _whole_map(red: PlanarRedundancy, evaluator: Evaluator, axes: tuple[Array, ...], target: Array,
+               t: float) -> NDArray[np.float32]:
+    """S ``(2 C_f,)`` on the figures' grid at time ``t`` [s] (``collision_value`` where unreachable)."""
+    if axes:
+        Q, reach = red.solve_grid(axes, target)
+    else:
+        Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
+    S = np.full(Q.shape[0], evaluator.potential.collision_value)
+    if reach.any():
+        S[reach] = evaluator(Q[reach], t).S
+    return S.astype(np.float32)
+
+
+def _fold_index(model: _Model, axes: tuple[Array, ...], map_axes: tuple[Array, ...]) -> IntArray:
+    """For each flat gene index of the DP grid, the flat index of the figures' cell holding its angle."""
+    if not axes:
+        return np.zeros(1, dtype=np.int64)
+    per_axis = []
+    for axis, target in zip(axes, map_axes, strict=True):
+        step = TWO_PI / len(target)
+        per_axis.append(np.rint(np.mod(axis, TWO_PI) / step).astype(np.int64) % len(target))
+    mesh = np.meshgrid(*per_axis, indexing="ij")
+    return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
+
+
+def _start_box(model: _Model, axes: tuple[Array, ...], start_q: Array) -> IntArray:
+    """Flat physical indices (both branches) of the cells whose genes are within one step's gene bound of
+    ``start_q``."""
+    C = model.cells
+    if not axes:
+        return np.arange(2 * C, dtype=np.int64)
+    keep = []
     for a, axis in enumerate(axes):
-        if model.periodic[a]:
-            index = round(float(np.mod(genes[a] - axis[0], TWO_PI)) / model.h) % len(axis)
-        else:
-            index = int(np.clip(round((genes[a] - axis[0]) / model.h), 0, len(axis) - 1))
-        flat = flat * len(axis) + index
-    return branch * model.cells + flat
+        diff = axis - start_q[a]
+        diff = np.abs(wrap_angle(diff) if model.periodic[a] else diff)
+        keep.append(np.flatnonzero(diff <= model.r[a] * model.h + 1e-12))
+    if any(k.size == 0 for k in keep):
+        return np.zeros(0, dtype=np.int64)
+    mesh = np.meshgrid(*keep, indexing="ij")
+    genes = np.ravel_multi_index(tuple(m.ravel() for m in mesh), model.shape).astype(np.int64)
+    return np.concatenate([genes, genes + C])
 
 
-def _family_of(label: int, layer: _Layer, members: IntArray, axes: tuple[Array, ...], **extra: object) -> Family:
-    best = int(members[int(np.argmax(layer.S[members]))])
-    genes = np.array([axes[a][layer.gene_index[best, a]] for a in range(len(axes))], dtype=float)
-    return Family(label=label, cells=int(members.size), peak_genes=genes, peak_branch=int(layer.branch[best]),
-                  peak_S=float(layer.S[best]), **extra)  # type: ignore[arg-type]
+def _start_families(model: _Model, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
+                    start_q: Array, branch0: int, opts: ReachOptions) -> tuple[Family, ...]:
+    """Components of the feasible states at ``t_0`` and their fate (see the module docstring)."""
+    first = full(0)
+    if first.cells.size == 0:
+        return ()
+    every = first.valid.reshape(-1)
+    labels = _components(first, every, model, math.radians(opts.cross_adjacency_deg))
+    F = _bits(labels)
+    alive = np.zeros(N + 1, dtype=np.uint64)
+    shared = np.zeros(N + 1, dtype=np.uint64)
+    alive[0] = np.bitwise_or.reduce(F)
+    src = first
+    for k in range(N):
+        dst = full(k + 1)
+        F = connect(src, dst, k).push_or(F, dst.states)
+        alive[k + 1] = np.bitwise_or.reduce(F) if F.size else np.uint64(0)
+        multi = F[np.bitwise_count(F) >= 2]
+        shared[k + 1] = np.bitwise_or.reduce(multi) if multi.size else np.uint64(0)
+        src = dst
+    home = _home_state(model, axes, first, start_q, branch0)
+    home_label = int(labels[home]) if home >= 0 else -1
+    out = []
+    for label in range(int(labels.max()) + 1):
+        members = np.flatnonzero(labels == label)
+        bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
+        alive_k = [k for k in range(N + 1) if alive[k] & bit]
+        shared_k = [k for k in range(1, N + 1) if shared[k] & bit]
+        out.append(_family_of(label + 1, first, model, members, alive_until=float(times[max(alive_k)]),
+                              finishes=max(alive_k) == N, holds_q0=label == home_label,
+                              shared_until=float(times[max(shared_k)]) if shared_k else None))
+    return tuple(out)
 
 
-def _motion(model: _Model, layers: list[_Layer], times: Array, q0: Array, q0_S: float,
-            beta0: float, branch0: int, rows: list[int]) -> ReachMotion:
-    """The motion through ``rows`` (one per layer 1..K), unwrapped from ``q0``."""
+def _home_state(model: _Model, axes: tuple[Array, ...], layer: _Layer, start_q: Array, branch: int) -> int:
+    """The state of ``layer`` nearest to ``start_q`` on ``branch`` (its grid cell and ``q_(n-1)``'s
+    representative), or -1 if that cell is not feasible."""
     g = model.periodic.size
-    K = len(rows)
+    flat = 0
+    for a in range(g):
+        if model.periodic[a]:
+            index = round(float(np.mod(start_q[a], TWO_PI)) / model.h) % model.shape[a]
+        else:
+            index = int(np.clip(round((start_q[a] - axes[a][0]) / model.h), 0, model.shape[a] - 1))
+        flat += index * int(model.strides[a])
+    row = np.flatnonzero(layer.cells == branch * model.cells + flat)
+    if row.size == 0:
+        return -1
+    m = 0 if model.q1_periodic else int(np.rint((start_q[g] - layer.q1[row[0]]) / TWO_PI)) - int(model.reps[0])
+    return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
+
+
+def _motion(model: _Model, layers: list[_Layer], times: Array, q0: Array, q0_S: float, branch0: int,
+            states: list[int]) -> ReachMotion:
+    """The motion through ``states`` (one per layer 1..K; ``layers[k - 1]`` is layer ``k``) from ``q0``: bounded
+    joints take their own values (genes: the axis values; ``q_(n-1)``: its representative; ``q_n``:
+    ``β + c``), periodic ones are unwrapped along the motion."""
+    g, M = model.periodic.size, model.M
+    K = len(states)
     q = np.empty((K + 1, q0.size))
     q[0] = q0
     S = np.empty(K + 1)
@@ -863,19 +1141,17 @@ def _motion(model: _Model, layers: list[_Layer], times: Array, q0: Array, q0_S: 
     branch = np.empty(K + 1, dtype=np.int64)
     branch[0] = branch0
     cells = np.full(K + 1, -1, dtype=np.int64)
-    beta_prev = beta0
-    for k, row in enumerate(rows, start=1):
-        layer = layers[k]
-        target = layer.q[row]
-        step = target - q[k - 1]
+    for k, state in enumerate(states, start=1):
+        layer = layers[k - 1]
+        row, m = divmod(state, M)
+        genes = layer.genes[row]
         for a in range(g):
-            if model.periodic[a]:
-                step[a] = float(wrap_angle(step[a]))
-        if model.wrap_elbow1:
-            step[g] = float(wrap_angle(step[g]))
-        step[g + 1] = layer.beta[row] - beta_prev
-        beta_prev = float(layer.beta[row])
-        q[k] = q[k - 1] + step
+            q[k, a] = q[k - 1, a] + float(wrap_angle(genes[a] - q[k - 1, a])) if model.periodic[a] else genes[a]
+        if model.q1_periodic:
+            q[k, g] = q[k - 1, g] + float(wrap_angle(layer.q1[row] - q[k - 1, g]))
+        else:
+            q[k, g] = layer.q1[row] + TWO_PI * model.reps[m]
+        q[k, g + 1] = layer.beta[row] + model.elbow_offset
         S[k] = layer.S[row]
         branch[k] = layer.branch[row]
         cells[k] = layer.cells[row]
