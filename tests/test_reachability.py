@@ -4,11 +4,17 @@ motion under the exact check, the typed error for spatial arms, and the ``reach-
 from __future__ import annotations
 
 import itertools
+import json
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
+from previewctl.cli.main import main
+from previewctl.control.oracle import OracleController
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.planar.redundancy import PlanarRedundancy
@@ -16,10 +22,13 @@ from previewctl.robot.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
-from previewctl.search.reachability import ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.redundancy import wrap_angle
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, load_scenario
 from previewctl.types import Array
 
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 LINK = 0.75  # [m], planar4's links
 RADIUS = 0.03  # [m], its capsules
 
@@ -333,3 +342,114 @@ def test_planar3_two_end_families(planar3: Robot) -> None:
     q0 = start_on_path(planar3, path, (0.5784,), 0)
     result = check_against_brute(planar3, scene, path, q0, 4.0, ReachOptions(resolution_deg=30.0, steps=5))
     assert len(result.end_families) == 2 and result.commit_time == pytest.approx(3.2)
+
+
+# --------------------------------------------------------------- the canonical scene, exact check
+
+
+@pytest.fixture(scope="module")
+def canonical() -> tuple[Scenario, ReachResult]:
+    """paper_planar on a 4 deg grid (the figures' maps off): quick enough for a test."""
+    scenario = load_scenario(SCENARIOS / "paper_planar.toml")
+    evaluator = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
+    opts = ReachOptions(resolution_deg=4.0, steps=50, map_times=0)
+    return scenario, reach_over_time(scenario.robot, evaluator, scenario.path, scenario.q0, 50.0, opts)
+
+
+def test_best_motion_respects_speed_and_joint_limits(canonical: tuple[Scenario, ReachResult]) -> None:
+    scenario, result = canonical
+    robot, motion = scenario.robot, result.motion
+    assert result.exists and len(motion.times) == 51
+    step = np.abs(np.diff(motion.q, axis=0))
+    assert np.all(step <= robot.velocity_limits * result.dt + 1e-9)
+    assert np.all(motion.q >= robot.lower_limits - 1e-9) and np.all(motion.q <= robot.upper_limits + 1e-9)
+    # every sample after q0 puts the hand on the path
+    for t, q in zip(motion.times[1:], motion.q[1:], strict=True):
+        data = robot.model.createData()
+        pin.framesForwardKinematics(robot.model, data, q)
+        np.testing.assert_allclose(data.oMf[robot.tip_frame_id].translation[:2], scenario.path.position(t), atol=1e-9)
+    # the elbow changes branch only through the stretched wrist
+    for k in np.flatnonzero(np.diff(motion.branch) != 0):
+        assert abs(motion.q[k, 3]) + abs(motion.q[k + 1, 3]) <= robot.velocity_limits[3] * result.dt + 1e-9
+    assert motion.min_S == pytest.approx(result.best_min_S) and motion.min_S > 0
+
+
+def test_best_motion_is_collision_free_under_the_exact_check(canonical: tuple[Scenario, ReachResult]) -> None:
+    """The linear interpolation between the samples (20 points per step), checked on the robot with its
+    URDF collision geometry through Pinocchio + Coal (the simulator's exact check)."""
+    scenario, result = canonical
+    exact = Evaluator(scenario.exact_robot(), scenario.scene, scenario.index, scenario.potential, method="general")
+    motion = result.motion
+    fine = np.linspace(motion.times[0], motion.times[-1], 20 * (len(motion.times) - 1) + 1)
+    Q = np.stack([motion.at(t) for t in fine])
+    check = exact(Q, 0.0)  # static scene
+    assert not check.collision.any()
+    assert check.min_distance.min() > 0
+
+
+def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
+    path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
+    with pytest.raises(PlanarOnlyError, match=r"^reach-map: planar arms only \(robot 'panda' is spatial\)$"):
+        reach_over_time(panda, Evaluator(panda), path, panda.neutral(), 2.0)
+    with pytest.raises(PlanarOnlyError, match="planar arms only"):
+        OracleController(panda, ControllerParams(), Evaluator(panda))
+
+
+def test_options_name_the_bad_value() -> None:
+    with pytest.raises(ConfigurationError, match=r"resolution_deg must lie in \(0, 90\].*got 0"):
+        ReachOptions(resolution_deg=0)
+    with pytest.raises(ConfigurationError, match=r"steps must be an integer >= 1, got 2\.5"):
+        ReachOptions(steps=2.5)  # type: ignore[arg-type]
+    with pytest.raises(ConfigurationError, match=r"velocity_scale must lie in \(0, 1\], got 1.5"):
+        ReachOptions(velocity_scale=1.5)
+
+
+def test_time_step_too_short_for_the_grid(planar4: Robot) -> None:
+    path = HandPath(np.array([[1.6, 0.4], [1.2, 1.0]]), 1.0)
+    q0 = start_on_path(planar4, path, (0.2, 0.9), 1)
+    with pytest.raises(ConfigurationError, match=r"time step 0\.01 s lets joint 1 move only 0\.573 deg.*fewer steps"):
+        reach_over_time(planar4, Evaluator(planar4), path, q0, 1.0, ReachOptions(resolution_deg=2.0, steps=100))
+
+
+# -------------------------------------------------------------------------------- CLI, oracle
+
+
+def test_cli_reach_map_json_and_files(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    code = main(["reach-map", str(SCENARIOS / "planar_free.toml"), "--resolution", "6", "--steps", "10",
+                 "--out", str(tmp_path), "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["scenario"] == "planar_free" and report["exists"] is True
+    assert report["best_min_S"] > 0 and (report["commit_time"] is None or 0 <= report["commit_time"] <= 5)
+    assert report["grid"]["steps"] == 10 and report["grid"]["gene_cells_per_step"] == [3, 3]
+    assert len(report["motion"]["times"]) == 11
+    for name in ("reach_maps.png", "reach_motion.png", "reach.json", "reach_motion.npz"):
+        assert (tmp_path / name).stat().st_size > 0
+    saved = np.load(tmp_path / "reach_motion.npz")
+    assert saved["q"].shape == (11, 4)
+
+
+def test_cli_reach_map_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reach-map", str(SCENARIOS / "planar_free.toml"), "--resolution", "6", "--steps", "10"]) == 0
+    out = capsys.readouterr().out
+    for label in ("verdict", "best min S", "commit time", "time taken", "a collision-free tracking motion exists"):
+        assert label in out
+
+
+def test_cli_reach_map_spatial_robot(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reach-map", str(SCENARIOS / "panda_crossing.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err == "previewctl: error: reach-map: planar arms only (robot 'panda' is spatial)\n"
+
+
+def test_oracle_tracks_the_plan_without_collision() -> None:
+    """planar_free with the oracle: it plans at its first command and follows the plan through eq. 19."""
+    scenario = load_scenario(SCENARIOS / "planar_free.toml")
+    result = simulate(scenario, "oracle")
+    assert result.controller == "oracle"
+    assert not result.collision.any()
+    assert result.hand_error.max() < 5e-3
+    assert result.targets.shape == (len(result.t), 1, 4)
+    # the arm stays near its plan (the target is taken 0.1 s ahead on the plan)
+    gap = np.abs(result.q - result.targets[:, 0]).max()
+    assert gap < 0.15
