@@ -33,6 +33,17 @@ LINK = 0.75  # [m], planar4's links
 RADIUS = 0.03  # [m], its capsules
 
 
+def planar2_urdf(tmp: Path) -> Path:
+    """planar4 without its last two links: a 2-joint planar arm (no gene: two cells per layer)."""
+    text = (shipped_robots_dir() / "planar4.urdf").read_text()
+    start = text.index('<joint name="joint3"')
+    end = text.index('<joint name="tip_joint"')
+    text = text[:start] + text[end:].replace('<parent link="link4"/>', '<parent link="link2"/>', 1)
+    out = tmp / "planar2.urdf"
+    out.write_text(text.replace('name="planar4"', 'name="planar2"'))
+    return out
+
+
 def planar3_urdf(tmp: Path, limits: tuple[tuple[float, float], ...] | None = None) -> Path:
     """planar4 without its last link: a 3-joint planar arm (one gene); optionally other joint limits [rad]."""
     text = (shipped_robots_dir() / "planar4.urdf").read_text()
@@ -292,6 +303,18 @@ def test_planar3_narrow_joint_limits(tmp_path: Path) -> None:
     opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
     result = check_against_brute(robot, scene, path, q0, 5.5, opts)
     assert np.all(result.motion.q >= robot.lower_limits - 1e-9) and np.all(result.motion.q <= robot.upper_limits + 1e-9)
+
+
+def test_planar2_no_gene(tmp_path: Path) -> None:
+    """A two-link arm has no redundancy: one cell per branch; the DP still tracks, and switches branch only
+    through the stretched elbow."""
+    robot = load_robot(str(planar2_urdf(tmp_path)))
+    path = HandPath(np.array([[1.2, 0.3], [1.0, 0.8]]), 4.0)
+    scene = Scene((Obstacle("disc", Sphere(0.2), Static(np.array([0.2, 1.2, 0.0]))),))
+    Q, ok = PlanarRedundancy(robot).solve(np.zeros((1, 0)), np.array([0]), path.position(0.0))
+    assert ok[0]
+    result = check_against_brute(robot, scene, path, Q[0], 4.0, ReachOptions(resolution_deg=30.0, steps=4))
+    assert result.map_axes == () and result.shape == (2,)
 
 
 def test_planar3_moving_obstacle_and_dead_end(planar3: Robot) -> None:

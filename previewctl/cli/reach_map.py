@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,10 @@ def add_reach_map_parser(sub: Any) -> None:
                         help=f"feasible cells have S > S_MIN (default {defaults.s_min:g})")
     parser.add_argument("--velocity-scale", type=float, default=defaults.velocity_scale,
                         help="fraction of the URDF joint speed limits the motion may use (default 1)")
+    parser.add_argument("--start-families", action="store_true",
+                        help="also report the components of S > S_MIN at t = 0 (the paper's peaks, when S <= 0 "
+                        "separates them) and how long each one's reachable set lives; evaluates the whole grid at "
+                        "every step")
     parser.add_argument("--out", help="folder for reach_maps.png (Fig. 8-like), reach_motion.png, reach.json and "
                         "reach_motion.npz")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -55,7 +60,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
     if robot.planar is None:
         raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
     options = ReachOptions(resolution_deg=args.resolution, steps=args.steps, max_step_cells=args.max_step_cells,
-                           s_min=args.s_min, velocity_scale=args.velocity_scale)
+                           s_min=args.s_min, velocity_scale=args.velocity_scale, start_families=args.start_families)
     evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
     result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, scenario.timing.duration, options)
     summary: dict[str, Any] = {"scenario": scenario.name, "robot": robot.name,
@@ -123,6 +128,12 @@ def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> 
     rows.append(("time taken", f"{timings['total']:.2f} s wall, {timings['cpu']:.2f} s CPU (maps "
                                f"{timings['maps']:.2f}, edges {timings['edges']:.2f}, dp {timings['dp']:.2f}, figures' "
                                f"maps / start families {timings['extras']:.2f}); {summary['edges']} transitions"))
+    limit = [math.degrees(v) / grid["dt"] for v in result.joint_step[: len(result.gene_cells)]]
+    slow = [(s, v) for s, v in zip(grid["gene_speed_deg_s"], limit, strict=True) if s < v - 1e-9]
+    if slow:
+        rows.append(("note", f"genes may move only {slow[0][0]:.3g} deg/s in this model (joint limit "
+                             f"{slow[0][1]:.3g} deg/s): a 'no' or a low best min S can be the model's; raise "
+                             "--steps or --max-step-cells to check"))
     for label, value in rows:
         print(f"{label:<18}{value}")
     end_label = "end families" if result.exists else f"families at the dead end t = {result.dead_end:g} s"

@@ -112,7 +112,8 @@ class ReachOptions:
     """Grid, time step and transition model of :func:`reach_over_time`.
 
     Attributes:
-        resolution_deg: gene grid step ``h`` [deg] (periodic genes: ``round(360 / h)`` cells).
+        resolution_deg: gene grid step ``h`` [deg]: a gene with finite limits gets ``floor(range / h) + 1``
+            cells from its lower limit, one without ``round(360 / h)`` periodic cells.
         steps: number of time steps ``N`` (``N + 1`` layers); ``Δt = duration / N`` [s].
         max_step_cells: cap on the gene cells moved per step (the work grows as ``(2 r + 1)^g``).
         s_min: feasible cells have ``S > s_min`` (0: collision-free and reachable).
@@ -152,7 +153,8 @@ class ReachOptions:
                 raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
         if not (isinstance(self.s_min, (int, float)) and math.isfinite(self.s_min) and self.s_min >= 0):
             raise ConfigurationError(f"s_min must be a finite number >= 0, got {self.s_min!r}")
-        if not (isinstance(self.velocity_scale, (int, float)) and 0 < self.velocity_scale <= 1):
+        if not (isinstance(self.velocity_scale, (int, float)) and math.isfinite(self.velocity_scale)
+                and 0 < self.velocity_scale <= 1):
             raise ConfigurationError(f"velocity_scale must lie in (0, 1], got {self.velocity_scale!r}")
         if not (isinstance(self.cross_adjacency_deg, (int, float)) and 0 <= self.cross_adjacency_deg <= 180):
             raise ConfigurationError(
@@ -171,7 +173,8 @@ class ReachMotion:
             by at most the per-step bounds, so linear interpolation is the motion the DP checked).
         S: ``(K + 1,)`` AMSIP of the samples (``S[0]`` is that of ``q0``).
         branch: ``(K + 1,)`` elbow branch (0: ``β >= 0``, 1: ``β < 0``).
-        cells: ``(K + 1,)`` flat grid index of each sample (``-1`` for ``q0``).
+        cells: ``(K + 1,)`` flat index ``branch * C + gene index`` of each sample in the DP's grid (``-1``
+            for ``q0``).
         min_S: ``min S[1:]``, the bottleneck the DP maximised.
         total_S: ``Σ S[1:]``, the tie-break it maximised next.
     """
