@@ -262,6 +262,11 @@ def check_against_brute(robot: Robot, scene: Scene, path: HandPath, q0: Array, d
             shared.append(any(len(set(family_of_path[column == c].tolist())) >= 2 for c in set(column.tolist())))
         expected = max((k for k in range(N + 1) if shared[k]), default=None)
         assert result.commit_time == (None if expected is None else pytest.approx(brute.times[expected]))
+        # the best motion ends in the family result.best_family names
+        end_state = next(s for s in comps[0] | set().union(*comps)
+                         if np.allclose(brute.q(N, s), motion.q[-1], atol=1e-9))
+        family = next(f for f in result.end_families if f.label == result.best_family)
+        assert family.cells == len(next(c for c in comps if end_state in c))
     if opts.start_families:
         comps = components(brute, 0, set(range(len(brute.layers[0]["S"]))), np.radians(opts.cross_adjacency_deg))
         assert sorted(f.cells for f in result.start_families) == sorted(len(c) for c in comps)

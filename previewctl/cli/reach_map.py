@@ -117,8 +117,12 @@ def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> 
                      + ", ".join(f"{t:.3g}" for t in switches) + " s"))
     families = summary["end_families"]
     if summary["commit_time"] is not None:
-        commit = (f"t = {summary['commit_time']:g} s: until then the arm can keep {len(families)} end families "
-                  "reachable, afterwards it is committed to one")
+        commit = (f"t = {summary['commit_time']:g} s: until then the arm can keep two of the {len(families)} end "
+                  "families reachable, afterwards it is committed to one")
+        best = next((f for f in families if f["label"] == summary["best_family"]), None)
+        if best is not None and best.get("shared_until") is not None:
+            commit += (f"; the best motion's family ({best['label']}) can be left until t = "
+                       f"{best['shared_until']:g} s")
     elif families:
         commit = "none needed: every motion from q0 ends in one family"
     else:
@@ -151,6 +155,8 @@ def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> 
                 extra.append(f"shares cells with another family until t = {f['shared_until']:g} s")
             if f.get("holds_q0"):
                 extra.append("holds q0")
+            if title == end_label and f["label"] == summary["best_family"]:
+                extra.append("the best motion ends here")
             genes = ", ".join(f"{v:.0f}" for v in f["peak_genes_deg"])
             print(f"  {f['label']:>2}: {f['cells']:>6} cells, peak S {f['peak_S']:9.1f} at genes ({genes}) deg, "
                   f"branch {f['peak_branch']}; " + "; ".join(extra))

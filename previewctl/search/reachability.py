@@ -254,7 +254,9 @@ class ReachResult:
         q0_S: AMSIP of ``q0`` at ``t_0``.
         end_families: components at ``t_K`` reachable from ``q0`` (``t_K``: the end, or the dead end).
         commit_time: the last time [s] at which the arm can still reach two end families
-            (``None`` with fewer than two).
+            (``None`` with fewer than two). It counts every end family, small ones too; the
+            families' own ``shared_until`` say when each one's options close.
+        best_family: the label of the end family the best motion ends in (``None`` without a step).
         start_families: components of the feasible cells at ``t_0`` (only with
             ``ReachOptions.start_families``).
         dt: time step [s].
@@ -283,6 +285,7 @@ class ReachResult:
     q0_S: float  # noqa: N815 -- the paper's symbol S
     end_families: tuple[Family, ...]
     commit_time: float | None
+    best_family: int | None
     start_families: tuple[Family, ...]
     dt: float
     joint_step: Array
@@ -322,6 +325,7 @@ class ReachResult:
             "best_min_S": None if not np.isfinite(self.best_min_S) else self.best_min_S,
             "q0_S": self.q0_S,
             "commit_time": self.commit_time,
+            "best_family": self.best_family,
             "end_families": [family(f) for f in self.end_families],
             "start_families": [family(f) for f in self.start_families],
             "motion": {
@@ -949,8 +953,10 @@ def reach_over_time(
     viable = [np.zeros(layer.states, dtype=bool) for layer in layers]
     end_families: list[Family] = []
     commit_time: float | None = None
+    best_family: int | None = None
     if K >= 1:
         labels = _components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
+        best_family = int(labels[states_path[-1]]) + 1
         A: list[NDArray[np.uint64]] = [np.zeros(0, dtype=np.uint64)] * (K + 1)
         A[K] = _bits(labels)
         for k in range(K - 1, 0, -1):
@@ -1011,6 +1017,7 @@ def reach_over_time(
         q0_S=q0_S,
         end_families=tuple(end_families),
         commit_time=commit_time,
+        best_family=best_family,
         start_families=start_families,
         dt=dt,
         joint_step=delta,
