@@ -494,7 +494,8 @@ position = [-1.0, 0.6, 0.0]
     boxes = previewctl.Scene(
         (
             previewctl.Obstacle(
-                "b", previewctl.Box((0.2, 0.4, 0.6)), previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3))
+                "b", previewctl.Box((0.2, 0.4, 0.6)),
+                previewctl.scene.motion.Static(np.array([1.0, 0.6, 0.0]), rot_z(0.3)),
             ),
             previewctl.Obstacle(
                 "h", previewctl.Box((0.3, 0.3, 0.3)), previewctl.scene.motion.Static(np.array([-1.0, 0.6, 0.0]))
