@@ -236,7 +236,7 @@ def test_controller_params_reject_bad_values(kwargs: dict[str, Any], message: st
 
 
 def test_controller_names_come_from_one_list() -> None:
-    assert get_args(ControllerName) == CONTROLLER_NAMES == ("none", "gradient", "single", "multi", "reach")
+    assert get_args(ControllerName) == CONTROLLER_NAMES == ("none", "gradient", "single", "multi", "reach", "oracle")
     assert PREVIEW_MODES == ("single", "multi", "reach")
     with pytest.raises(ParameterError, match=r"controller = 'fancy' is not valid; valid: none, gradient, single"):
         ControllerSpec("fancy")

@@ -23,7 +23,8 @@ def add_parser(commands: Commands) -> None:
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
-                     help="override the scenario's controller")
+                     help="override the scenario's controller ('oracle': non-causal, follows the reachability "
+                     "DP's best motion, see reach-map)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     run.add_argument("--continue-after-collision", action="store_true",

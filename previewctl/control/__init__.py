@@ -12,7 +12,10 @@ and differs only in the null-space input ``v``:
 * ``single`` (eq. 20): ``v = K_v (q̃(t + t̃) − q)``;
 * ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
 * ``reach`` (Fig. 3): a route of peaks, one per future time, that the arm can move through
-  with the best total S (:mod:`previewctl.control.reach`).
+  with the best total S (:mod:`previewctl.control.reach`);
+* ``oracle`` (non-causal, a reference, planar arms): ``v`` pulls toward the best motion of the
+  reachability DP over the whole future (:mod:`previewctl.control.oracle`,
+  :mod:`previewctl.search.reachability`).
 
 ``with_gradient`` (off by default; not in the paper) adds the local ascent ``K_g ∇_q S`` of
 ``gradient`` to the null-space input of ``single`` and ``multi``. The preview pull heads for the

@@ -1,5 +1,8 @@
 """Building a controller: :func:`make_controller` (from a scenario or from parts) and :func:`build_law`.
 
+The names: ``none``, ``gradient``, ``single``, ``multi``, ``reach`` and ``oracle`` (non-causal: it
+follows the reachability DP's best motion over the whole future, a reference for the others).
+
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a
 ``numpy.random.Generator``, never from numpy's global state. ``seed`` is an ``int`` (the generator is
 ``np.random.default_rng(seed)``) or a ``Generator`` you own; each imaginary arm gets its own child
@@ -17,6 +20,7 @@ import numpy as np
 from previewctl.control.base import ControlLaw
 from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller
 from previewctl.control.gradient import GradientController
+from previewctl.control.oracle import OracleController
 from previewctl.control.params import CONTROLLER_NAMES, ControllerParams, ControllerSpec
 from previewctl.control.preview import PreviewController, SearchFactory, SearchLike
 from previewctl.control.reach import ReachController
@@ -204,6 +208,8 @@ def build_law(
         return TrackingController(robot, params)
     if spec.name == "gradient":
         return GradientController(robot, evaluator, params)
+    if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command
+        return OracleController(robot, params, evaluator)
     mode = "multi" if spec.name == "reach" else spec.name
     count = len(params.preview_weights(mode))
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)

@@ -32,8 +32,9 @@ from previewctl.validation import (
 
 PreviewMode = Literal["single", "multi", "reach"]
 """The controllers that steer the arm towards imaginary arms at future times."""
-ControllerName = Literal["none", "gradient", PreviewMode]
-"""Every controller: ``none`` (eq. 19 alone), ``gradient``, and the preview modes."""
+ControllerName = Literal["none", "gradient", PreviewMode, "oracle"]
+"""Every controller: ``none`` (eq. 19 alone), ``gradient``, the preview modes, and ``oracle``, which is
+non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)

@@ -1,0 +1,160 @@
+"""``previewctl reach-map``: reachability over time of a planar scenario (the global, non-causal reference)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from previewctl.files import atomic_write, atomic_write_bytes
+from previewctl.index.evaluator import Evaluator
+from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.sim.scenario import load_scenario
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``reach-map`` on the subcommand table ``sub`` (from ``add_subparsers``)."""
+    defaults = ReachOptions()
+    parser = sub.add_parser(
+        "reach-map",
+        help="can the arm track the whole path without collision? (planar arms; DP over grid x time)",
+        description="Reachability over time (the paper's section 5.1 made exact on a grid): dynamic programming "
+        "over the redundancy grid (q1 .. q(n-2) x both elbow branches) x time, from the scenario's q0, with "
+        "S > 0 as the feasible set, every joint within its speed limit per step (the elbow switching only "
+        "through the stretched wrist) and a sweep bound that keeps the motion between samples collision-free. "
+        "Prints whether a collision-free tracking motion exists (else where every motion gets stuck), the "
+        "latest time by which the arm must commit to a family, the best minimum S of a motion and the time "
+        "taken. A 'no' is relative to the grid, the time step and the per-step gene cap. Planar arms of 2-4 "
+        "joints only. See previewctl.search.reachability for every definition.",
+    )
+    parser.add_argument("scenario", help="scenario TOML file (see scenarios/)")
+    parser.add_argument("--resolution", type=float, default=defaults.resolution_deg,
+                        help=f"gene grid step [deg] (default {defaults.resolution_deg:g})")
+    parser.add_argument("--steps", type=int, default=defaults.steps,
+                        help=f"time steps over the scenario's duration (default {defaults.steps})")
+    parser.add_argument("--max-step-cells", type=int, default=defaults.max_step_cells,
+                        help="most grid cells a gene may move per step; the gene speed bound is this x resolution / "
+                        f"step, or the joint limit if lower (default {defaults.max_step_cells})")
+    parser.add_argument("--s-min", type=float, default=defaults.s_min,
+                        help=f"feasible cells have S > S_MIN (default {defaults.s_min:g})")
+    parser.add_argument("--velocity-scale", type=float, default=defaults.velocity_scale,
+                        help="fraction of the URDF joint speed limits the motion may use (default 1)")
+    parser.add_argument("--start-families", action="store_true",
+                        help="also report the components of S > S_MIN at t = 0 (the paper's peaks, when S <= 0 "
+                        "separates them) and how long each one's reachable set lives; evaluates the whole grid at "
+                        "every step")
+    parser.add_argument("--out", help="folder for reach_maps.png (Fig. 8-like), reach_motion.png, reach.json and "
+                        "reach_motion.npz")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.set_defaults(func=cmd_reach_map)
+
+
+def cmd_reach_map(args: argparse.Namespace) -> int:
+    """Run the reachability DP on a scenario; print the verdict, commit time, best min S and time taken."""
+    scenario = load_scenario(args.scenario)
+    robot = scenario.robot
+    if robot.planar is None:
+        raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
+    options = ReachOptions(resolution_deg=args.resolution, steps=args.steps, max_step_cells=args.max_step_cells,
+                           s_min=args.s_min, velocity_scale=args.velocity_scale, start_families=args.start_families)
+    evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
+    result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, scenario.timing.duration, options)
+    summary: dict[str, Any] = {"scenario": scenario.name, "robot": robot.name,
+                               "duration": scenario.timing.duration, **result.summary()}
+    written: list[str] = []
+    if args.out:
+        from previewctl.viz.reach import plot_reach_maps, plot_reach_motion
+
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        if result.axes:
+            written.append(str(plot_reach_maps(result, out / "reach_maps.png")))
+        written.append(str(plot_reach_motion(result, out / "reach_motion.png")))
+        summary["files"] = [*written, str(out / "reach.json"), str(out / "reach_motion.npz")]
+        atomic_write_bytes(out / "reach.json", (json.dumps(summary, indent=2) + "\n").encode())
+        save_motion(result, out / "reach_motion.npz")
+        written += [str(out / "reach.json"), str(out / "reach_motion.npz")]
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    _print(summary, result, written)
+    return 0
+
+
+def save_motion(result: ReachResult, path: Path) -> Path:
+    """Write the best motion (``times`` [s], ``q`` [rad], ``S``, ``branch``) to an ``.npz`` file, atomically."""
+    motion = result.motion
+    atomic_write(path, lambda f: np.savez(f, times=motion.times, q=motion.q, S=motion.S, branch=motion.branch))
+    return path
+
+
+def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> None:
+    grid = summary["grid"]
+    shape = " x ".join(f"{n} ({lo:g}..{hi:g})" for lo, hi, n in grid["gene_axes_deg"]) or "1"
+    steps_deg = ", ".join("-" if v is None else f"{v:.3g}" for v in grid["joint_step_deg"])
+    gene_speed = ", ".join(f"{v:.3g}" for v in grid["gene_speed_deg_s"])
+    rows: list[tuple[str, str]] = [
+        ("scenario", f"{summary['scenario']} ({summary['robot']}), {summary['duration']:g} s"),
+        ("grid", f"{grid['resolution_deg']:g} deg over the joint limits: {shape} deg x 2 elbow branches, "
+                 f"{grid['steps']} steps of {grid['dt']:.4g} s"),
+        ("transition model", f"joints <= [{steps_deg}] deg per step; genes <= {grid['gene_cells_per_step']} cells "
+                             f"per step = [{gene_speed}] deg/s; feasible: S > {grid['s_min']:g}"),
+        ("verdict", summary["verdict"]),
+        ("best min S", "-" if summary["best_min_S"] is None else
+         f"{summary['best_min_S']:.2f} over t >= {result.times[1]:.4g} s (S at q0 = {summary['q0_S']:.2f})"),
+    ]
+    switches = summary["motion"]["elbow_switch_times"]
+    if switches:
+        rows.append(("best motion", "elbow switch (stretched wrist) near t = "
+                     + ", ".join(f"{t:.3g}" for t in switches) + " s"))
+    families = summary["end_families"]
+    if summary["commit_time"] is not None:
+        commit = (f"t = {summary['commit_time']:g} s: until then the arm can keep two of the {len(families)} end "
+                  "families reachable, afterwards it is committed to one")
+        best = next((f for f in families if f["label"] == summary["best_family"]), None)
+        if best is not None and best.get("shared_until") is not None:
+            commit += (f"; the best motion's family ({best['label']}) can be left until t = "
+                       f"{best['shared_until']:g} s")
+    elif families:
+        commit = "none needed: every motion from q0 ends in one family"
+    else:
+        commit = "-"
+    rows.append(("commit time", commit))
+    timings = summary["timings_s"]
+    rows.append(("time taken", f"{timings['total']:.2f} s wall, {timings['cpu']:.2f} s CPU (maps "
+                               f"{timings['maps']:.2f}, edges {timings['edges']:.2f}, dp {timings['dp']:.2f}, figures' "
+                               f"maps / start families {timings['extras']:.2f}); {summary['edges']} transitions"))
+    limit = [math.degrees(v) / grid["dt"] for v in result.joint_step[: len(result.gene_cells)]]
+    slow = [(s, v) for s, v in zip(grid["gene_speed_deg_s"], limit, strict=True) if s < v - 1e-9]
+    if slow:
+        rows.append(("note", f"genes may move only {slow[0][0]:.3g} deg/s in this model (joint limit "
+                             f"{slow[0][1]:.3g} deg/s): a 'no' or a low best min S can be the model's; raise "
+                             "--steps or --max-step-cells to check"))
+    for label, value in rows:
+        print(f"{label:<18}{value}")
+    end_label = "end families" if result.exists else f"families at the dead end t = {result.dead_end:g} s"
+    for title, items in ((end_label, families), ("start families", summary["start_families"])):
+        if not items:
+            continue
+        print(f"{title}:")
+        for f in items:
+            extra = []
+            if "best_min_S" in f:
+                extra.append(f"best min S {f['best_min_S']:.1f}")
+            if "alive_until" in f:
+                extra.append("reaches the end" if f.get("finishes") else f"dies after t = {f['alive_until']:g} s")
+            if f.get("shared_until") is not None:
+                extra.append(f"shares cells with another family until t = {f['shared_until']:g} s")
+            if f.get("holds_q0"):
+                extra.append("holds q0")
+            if title == end_label and f["label"] == summary["best_family"]:
+                extra.append("the best motion ends here")
+            genes = ", ".join(f"{v:.0f}" for v in f["peak_genes_deg"])
+            print(f"  {f['label']:>2}: {f['cells']:>6} cells, peak S {f['peak_S']:9.1f} at genes ({genes}) deg, "
+                  f"branch {f['peak_branch']}; " + "; ".join(extra))
+    for path in written:
+        print(f"{'written':<18}{path}")

@@ -1,0 +1,116 @@
+"""``oracle``: a NON-CAUSAL reference controller that follows the reachability DP's best motion.
+
+Not a controller the paper proposes, and not one a robot could run on-line: it reads the whole
+future (the hand path and every obstacle's motion over the run) before the first cycle, and asks
+:func:`previewctl.search.reachability.reach_over_time` for the collision-free tracking motion with the
+best minimum AMSIP (max-min S, then max total S). It then tracks that motion through eq. 19, like a
+preview controller whose imaginary arm is the oracle's configuration ``q*(t + t_l)`` a small lookahead
+``t_l`` ahead:
+
+    v = q̇*(t + t_l) + K_v (q*(t + t_l) − q),        q̇ = J#(ṙ_d + K_p e) + (I − J⁺J) v,
+
+with ``q*`` the DP's samples interpolated linearly in time (unwrapped along the motion, so the
+difference is taken without wrapping: the elbow changes branch where the plan does, at the
+stretched wrist) and ``q̇*`` its slope (feed-forward). ``K_v`` is ``ControllerParams.gain``.
+
+Its purpose is comparison: any run can be set against what was possible in the same scene. When
+the DP finds no motion to the end, the oracle follows the best motion to the dead end and then holds
+its last configuration as the target (the run will then show where the scene defeats every motion
+of the DP's model).
+
+The plan is made at the first call of :meth:`OracleController.command` from the state's path and
+scene, the evaluator's index and potential and the configuration at that time, over the rest of
+the path (``path.end_time − t``); that first cycle therefore takes seconds. Pass ``plan=`` to reuse
+a plan made before. Planar arms of 2-4 joints only (the DP's grid).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.params import ControllerParams
+from previewctl.control.tracking import gain_vector, track
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.robot.model import Robot
+from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
+from previewctl.types import Array
+
+ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
+"""The DP the oracle plans with by default: 2° grid, 50 steps over the rest of the path, no figure maps."""
+
+
+class OracleController:
+    """``oracle`` (non-causal): tracks the reachability DP's best motion (see the module docstring).
+
+    Args:
+        robot: a planar arm of 2 to 4 joints.
+        params: gains (``gain`` is ``K_v`` [1/s]), feedback, damping and limits of eq. 19.
+        evaluator: the AMSIP evaluator of the scene (the DP's S and distances).
+        plan: a plan made before (a :class:`ReachResult` or its :class:`ReachMotion`); default: planned at
+            the first call.
+        options: the DP's grid and transition model (default :data:`ORACLE_OPTIONS`); the number of
+            steps is lowered when the path left is too short for it (a step must let a gene move by at
+            least one grid cell).
+        lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
+
+    Raises:
+        PlanarOnlyError: a spatial arm.
+        ConfigurationError: a negative or non-finite lookahead.
+    """
+
+    name = "oracle"
+
+    def __init__(
+        self,
+        robot: Robot,
+        params: ControllerParams,
+        evaluator: Evaluator,
+        *,
+        plan: ReachResult | ReachMotion | None = None,
+        options: ReachOptions | None = None,
+        lookahead: float = 0.1,
+    ) -> None:
+        if robot.planar is None:
+            raise PlanarOnlyError(f"oracle: planar arms only (robot {robot.name!r} is spatial); the reachability "
+                                  f"DP it follows needs the planar redundancy grid")
+        if not (isinstance(lookahead, (int, float)) and math.isfinite(lookahead) and lookahead >= 0):
+            raise ConfigurationError(f"oracle lookahead must be a finite number >= 0 [s], got {lookahead!r}")
+        self.robot, self.params, self.evaluator = robot, params, evaluator
+        self.options = options or ORACLE_OPTIONS
+        self.lookahead = float(lookahead)
+        self.result: ReachResult | None = plan if isinstance(plan, ReachResult) else None
+        self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
+        self._gain = gain_vector(params.gain, robot.nv, "gain")
+
+    def plan(self, t: float, q: Array, state: ControlState) -> ReachMotion:
+        """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path``."""
+        horizon = state.path.end_time - t
+        if horizon <= 0:  # nothing left to track: hold q
+            self.motion = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
+                                      branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
+                                      min_S=float("nan"), total_S=0.0)
+            return self.motion
+        options = self.options
+        slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
+        if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
+            fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
+            if fit < options.steps:
+                from dataclasses import replace
+
+                options = replace(options, steps=max(1, fit))
+        self.result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t)
+        self.motion = self.result.motion
+        return self.motion
+
+    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
+        """Joint velocity [rad/s] for time ``t`` [s]: eq. 19 pulled toward the plan at ``t + lookahead``."""
+        motion = self.motion if self.motion is not None else self.plan(t, q, state)
+        t_ref = t + self.lookahead
+        q_ref = motion.at(t_ref)
+        v = motion.velocity(t_ref) + self._gain * (q_ref - np.asarray(q, dtype=float))
+        S_ref = float(np.interp(t_ref, motion.times, motion.S)) if motion.times.size else float("nan")
+        return track(self.robot, t, q, state, v, self.params, q_ref[None, :], np.array([S_ref]))

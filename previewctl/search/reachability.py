@@ -1,0 +1,1171 @@
+"""Reachability over time: dynamic programming over the planar redundancy grid x time (the global reference).
+
+The paper's section 5.1 asks "whether the current configuration is reachable to the future optimal
+configuration" and answers by looking at the AMSIP maps at ten times (Fig. 8, Table 1). This module
+answers it exactly on a grid, for planar arms, offline and non-causally (it reads the whole future):
+
+* **Space.** The redundancy grid of :class:`~previewctl.planar.redundancy.PlanarRedundancy`: the
+  genes ``q_1 .. q_(n-2)`` on a ``h``-degree grid x the two elbow branches; the last two joints in
+  closed form, so every cell puts the hand on the path. Joint limits hold along every motion: a
+  gene's grid runs over its joint limits (planar4: ``[-360°, 360°]``, so a grid value *is* the joint
+  value; only a gene without finite limits gets a periodic ``[0, 360)`` axis), ``q_n = β + c`` with the
+  signed elbow angle ``β`` in ``[-π, π]`` never wraps, and ``q_(n-1)``, which the closed form gives
+  modulo 2π as ``a`` in ``[-π, π)``, is carried by a *state* ``(cell, m)``: the arm is at ``a + 2π m``,
+  and only the representatives within the joint's limits exist. (Without this a motion can wind a
+  ``±2π`` joint past its limit: the first version's best motion on ``paper_planar`` took ``q_3`` to
+  ``-400°``, and a controller following it was stopped by the limit.)
+* **Time.** ``N`` steps of ``Δt = duration / N`` [s]; layer ``k`` holds the cells at ``t_k = t_0 + k Δt``
+  with the obstacles and the hand target of that time. Layer 0 of the dynamic programme is the
+  start configuration ``q0`` itself (not a grid cell); the grid at ``t_0`` is only used for the
+  start families and the figures.
+* **Feasible cells.** ``S > s_min`` (AMSIP, eq. 18; ``S < 0`` when colliding or unreachable).
+* **Transitions** ``c -> c'`` from layer ``k`` to ``k + 1`` (all conditions, each conservative):
+
+  1. joint speed (every joint, the closed-form last two included): ``|Δq_j| <= δ_j = v_j Δt``
+     with ``v_j`` the URDF speed limit x ``velocity_scale`` [rad/s]. Genes move by whole cells,
+     ``|Δi_a| <= r_a = min(floor(δ_a / h), max_step_cells)``: the cap ``max_step_cells`` bounds the
+     work, and it is a further (reported) restriction when ``r_a h < δ_a``. ``q_(n-1)`` moves the
+     short way, ``Δ = wrap(a' - a)``, ``|Δ| <= δ_(n-1)``, its representative following (``m' = m``, or
+     ``m ± 1`` when the short way crosses ``±π``), and the new state must exist (within the limits).
+     The elbow is compared through ``β`` (branch 0: ``β >= 0``, branch 1: ``β < 0``) *without*
+     wrapping, so an elbow switch can only pass the stretched wrist ``β = 0``
+     (``|β| + |β'| <= δ_n``), never the folded one (``β = ±π``).
+  2. the continuous motion between the samples: the arm is taken to move linearly in joint space
+     from ``c`` at ``t_k`` to ``c'`` at ``t_(k+1)``. A point of guarded capsule ``l`` then moves by at most
+     ``B_l = Σ_j |Δq_j| ρ_jl`` [m], with ``ρ_jl`` the largest distance from joint ``j`` to that capsule
+     (link lengths along the chain + capsule end + radius: a bound independent of the
+     configuration). The obstacles move by at most ``m = v_obs Δt`` (``v_obs`` estimated from
+     ``obstacle_substeps`` samples of their motion; 0 for static ones). The step is collision-free
+     if ``d_l(c) + d_l(c') > B_l + m`` for every guarded capsule ``l``, ``d_l`` the capsule-obstacle
+     distance [m]: at a fraction ``s`` of the step the clearance is at least
+     ``max(d_l(c) - s (B_l + m), d_l(c') - (1 - s)(B_l + m)) > 0``. The hand leaves the path between
+     samples by a little (the path is not linear in joint space); a tracking controller such as
+     :class:`~previewctl.control.oracle.OracleController` keeps it on the path and uses the motion
+     as a reference.
+
+  So a motion the DP returns is, as sampled and linearly interpolated, within the speed limits
+  and collision-free for the guarded links. A "no" is relative to the grid, the time step and the
+  step cap: the DP is resolution-complete, not complete.
+
+The programme, over stored edge lists (one per step, built once, between states):
+
+Every quantity below is per state (cell and representative); the figures fold states onto cells
+over ``[0, 360)``. Layer ``k + 1`` is evaluated only at the cells one step away from the states
+reachable at layer ``k`` (a lazy forward sweep: the DP from ``q0`` never needs the rest).
+
+* **(a) existence.** ``W_k(c)`` = the best bottleneck ``max over motions q0 -> c of min_(1<=i<=k) S_i``
+  (forward max-min; ``-inf`` when ``c`` is not reachable). A motion to the end exists iff some
+  ``W_N > -inf``. Otherwise the *dead end* is ``t_K`` with ``K`` the last layer that can be reached.
+* **(c) the best motion.** ``S* = max W_K`` (the best minimum S over ``t_1 .. t_K``; ``q0`` is given and
+  its own S reported apart). Among the motions whose every sample has ``S >= S*``, the one with the
+  largest total ``Σ_k S_k`` (a backward max-sum DP on the cells with ``W_k >= S*``, then a forward
+  read-out): the exact lexicographic optimum (max min S, then max total S).
+* **(b) the commit time.** The *end families* are the connected components (8-neighbour grid
+  adjacency within a branch; the two branches of a cell are adjacent where ``|β| <= cross_adjacency``)
+  of the cells at ``t_K`` that ``q0`` reaches (``K = N`` when a motion exists; otherwise the families
+  that last longest). A backward OR of family bit masks gives, for every
+  reachable cell, the set of end families still reachable from it; the *viable tube* is the reachable
+  cells with a non-empty set. The **commit time** is the last ``t_k`` at which some cell of the viable
+  tube (or ``q0`` at ``t_0``) can still reach two or more end families: until then the arm can keep
+  its options open; from ``t_(k+1)`` on every viable configuration leads to exactly one family. With
+  one end family there is nothing to commit to (``None``).
+* **Start families** (the paper's view of Fig. 8): the components of the feasible cells at ``t_0``.
+  A forward OR of their bits gives each family's *lifetime* (the last ``t_k`` at which its forward
+  reachable set is non-empty; the paper's peak 4 dies at 15 s), whether it reaches ``t_N``, and the
+  last time its reachable set shares a cell with another family's (after that, the family's tube is
+  separate from the others).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.path import HandPath
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.joints import FULL_TURN as TWO_PI
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Scene
+from previewctl.search.redundancy import wrap_angle
+from previewctl.types import Array
+
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+MAX_FAMILY_BITS = 63
+"""Families tracked with their own bit; smaller components beyond that share the last bit."""
+
+
+class PlanarOnlyError(ConfigurationError):
+    """Reachability over time is built for planar arms (closed-form redundancy grid) only."""
+
+
+@dataclass(frozen=True)
+class ReachOptions:
+    """Grid, time step and transition model of :func:`reach_over_time`.
+
+    Attributes:
+        resolution_deg: gene grid step ``h`` [deg]: a gene with finite limits gets ``floor(range / h) + 1``
+            cells from its lower limit, one without ``round(360 / h)`` periodic cells.
+        steps: number of time steps ``N`` (``N + 1`` layers); ``Δt = duration / N`` [s].
+        max_step_cells: cap on the gene cells moved per step (the work grows as ``(2 r + 1)^g``).
+        s_min: feasible cells have ``S > s_min`` (0: collision-free and reachable).
+        velocity_scale: fraction of the URDF joint speed limits the motion may use, in (0, 1].
+        obstacle_substeps: samples per step used to bound the obstacles' speed.
+        cross_adjacency_deg: the two elbow branches of one grid cell count as adjacent (one family)
+            where the elbow angle ``|β|`` is at most this [deg] (the stretched wrist).
+        map_times: how many whole-grid S maps to keep for the figures (spread over the layers; 0: none).
+            Arms with one gene keep every layer's map.
+        start_families: also find the start families (components at ``t_0`` and their fate). This
+            evaluates the whole grid at every time and connects every feasible cell, which the DP from
+            ``q0`` otherwise avoids (it evaluates only the cells one step away from the reachable set).
+    """
+
+    resolution_deg: float = 2.0
+    steps: int = 50
+    max_step_cells: int = 3
+    s_min: float = 0.0
+    velocity_scale: float = 1.0
+    obstacle_substeps: int = 8
+    cross_adjacency_deg: float = 10.0
+    map_times: int = 10
+    start_families: bool = False
+
+    def __post_init__(self) -> None:
+        """Validate every field.
+
+        Raises:
+            ConfigurationError: a bad value (the message names the field and the value).
+        """
+        if not (isinstance(self.resolution_deg, (int, float)) and math.isfinite(self.resolution_deg)
+                and 0 < self.resolution_deg <= 90):
+            raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {self.resolution_deg!r}")
+        for name, low in (("steps", 1), ("max_step_cells", 1), ("obstacle_substeps", 1), ("map_times", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
+        if not (isinstance(self.s_min, (int, float)) and math.isfinite(self.s_min) and self.s_min >= 0):
+            raise ConfigurationError(f"s_min must be a finite number >= 0, got {self.s_min!r}")
+        if not (isinstance(self.velocity_scale, (int, float)) and math.isfinite(self.velocity_scale)
+                and 0 < self.velocity_scale <= 1):
+            raise ConfigurationError(f"velocity_scale must lie in (0, 1], got {self.velocity_scale!r}")
+        if not (isinstance(self.cross_adjacency_deg, (int, float)) and 0 <= self.cross_adjacency_deg <= 180):
+            raise ConfigurationError(
+                f"cross_adjacency_deg must lie in [0, 180] [deg], got {self.cross_adjacency_deg!r}")
+        if not isinstance(self.start_families, bool):
+            raise ConfigurationError(f"start_families must be true or false, got {self.start_families!r}")
+
+
+@dataclass(frozen=True)
+class ReachMotion:
+    """A motion through the grid, one sample per layer (``K + 1`` samples, ``q0`` first).
+
+    Attributes:
+        times: ``(K + 1,)`` [s].
+        q: ``(K + 1, n)`` configurations [rad], unwrapped along the motion (consecutive samples differ
+            by at most the per-step bounds, so linear interpolation is the motion the DP checked).
+        S: ``(K + 1,)`` AMSIP of the samples (``S[0]`` is that of ``q0``).
+        branch: ``(K + 1,)`` elbow branch (0: ``β >= 0``, 1: ``β < 0``).
+        cells: ``(K + 1,)`` flat index ``branch * C + gene index`` of each sample in the DP's grid (``-1``
+            for ``q0``).
+        min_S: ``min S[1:]``, the bottleneck the DP maximised.
+        total_S: ``Σ S[1:]``, the tie-break it maximised next.
+    """
+
+    times: Array
+    q: Array
+    S: Array
+    branch: IntArray
+    cells: IntArray
+    min_S: float  # noqa: N815 -- the paper's symbol S
+    total_S: float  # noqa: N815 -- the paper's symbol S
+
+    def at(self, t: float) -> Array:
+        """Configuration [rad] at time ``t`` [s], linear between samples, held outside."""
+        t = float(np.clip(t, self.times[0], self.times[-1]))
+        return np.array([np.interp(t, self.times, column) for column in self.q.T])
+
+    def velocity(self, t: float) -> Array:
+        """Joint velocity [rad/s] of the linear interpolation at ``t`` [s] (0 outside the motion)."""
+        if self.times.size < 2 or t < self.times[0] or t >= self.times[-1]:
+            return np.zeros(self.q.shape[1])
+        k = int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, self.times.size - 2))
+        return np.asarray((self.q[k + 1] - self.q[k]) / (self.times[k + 1] - self.times[k]), dtype=float)
+
+
+@dataclass(frozen=True)
+class Family:
+    """A connected component of feasible cells in one layer, and its fate over time.
+
+    Attributes:
+        label: its number (1-based, by decreasing size).
+        cells: how many grid cells it holds.
+        peak_genes: ``(g,)`` genes [rad] of its best cell.
+        peak_branch: branch of its best cell.
+        peak_S: S of its best cell.
+        alive_until: start families: the last time [s] its forward reachable set is non-empty.
+        finishes: start families: whether that set reaches the last layer.
+        shared_until: the last time [s] some cell is reachable from (start families) or leads to (end
+            families) this family and another one too; ``None`` if never.
+        best_min_S: end families: the best bottleneck ``min S`` of a motion from ``q0`` ending in it.
+        holds_q0: start families: whether ``q0``'s nearest grid cell belongs to it.
+    """
+
+    label: int
+    cells: int
+    peak_genes: Array
+    peak_branch: int
+    peak_S: float  # noqa: N815 -- the paper's symbol S
+    alive_until: float | None = None
+    finishes: bool | None = None
+    shared_until: float | None = None
+    best_min_S: float | None = None  # noqa: N815 -- the paper's symbol S
+    holds_q0: bool | None = None
+
+
+@dataclass(frozen=True)
+class ReachResult:
+    """The answer of :func:`reach_over_time` (see the module docstring for every definition).
+
+    Attributes:
+        times: ``(N + 1,)`` layer times [s].
+        axes: the DP's gene axes [rad], one per gene (over the joint limits when they are finite).
+        map_axes: the figures' axes, ``[0, 2π)`` per gene like the paper's maps.
+        shape: the figures' grid shape ``(2, n_1, ..., n_g)`` over ``map_axes``.
+        map_layers: the layers whose whole S map is kept (see ``ReachOptions.map_times``).
+        S_maps: ``(len(map_layers), 2, n_1, ..., n_g)`` AMSIP at those layers over ``map_axes``
+            (float32; ``collision_value`` where unreachable).
+        reachable: ``(N + 1, 2, n_1, ...)`` over ``map_axes``: cells some state of which (a representative
+            of the joint values, see the module docstring) is reachable from ``q0`` (layer 0: none).
+        viable: ``(N + 1, 2, n_1, ...)`` likewise for the states from which the motion can still be
+            continued to ``t_K`` (the end, or the dead end).
+        exists: whether a collision-free motion from ``q0`` to ``t_N`` exists (in the DP's model).
+        dead_end: when it does not, the last time [s] the arm can still be at (``t_0``: not even one
+            step); ``None`` when it does.
+        best_min_S: ``S*``: the best minimum S over ``t_1 .. t_K`` (``nan`` if no step is possible).
+        motion: the best motion (to ``t_K``, the dead end when no motion exists).
+        q0_S: AMSIP of ``q0`` at ``t_0``.
+        end_families: components at ``t_K`` reachable from ``q0`` (``t_K``: the end, or the dead end).
+        commit_time: the last time [s] at which the arm can still reach two end families
+            (``None`` with fewer than two). It counts every end family, small ones too; the
+            families' own ``shared_until`` say when each one's options close.
+        best_family: the label of the end family the best motion ends in (``None`` without a step).
+        start_families: components of the feasible cells at ``t_0`` (only with
+            ``ReachOptions.start_families``).
+        dt: time step [s].
+        joint_step: ``(n,)`` per-step joint bound ``δ_j`` [rad] (``inf``: no limit).
+        gene_cells: ``(g,)`` gene cells per step ``r_a``.
+        edges: number of allowed transitions between states per step ``(K,)``.
+        timings: wall-clock seconds per stage (``maps``: evaluating S on the layers; ``edges``: the
+            transitions; ``dp``: the passes, families and commit time; ``extras``: the figures' whole maps
+            and the start families) and in all (``total``), and the process CPU seconds (``cpu``; on a
+            shared machine the fairer figure).
+        options: the options used.
+    """
+
+    times: Array
+    axes: tuple[Array, ...]
+    map_axes: tuple[Array, ...]
+    shape: tuple[int, ...]
+    map_layers: tuple[int, ...]
+    S_maps: NDArray[np.float32]
+    reachable: BoolArray
+    viable: BoolArray
+    exists: bool
+    dead_end: float | None
+    best_min_S: float  # noqa: N815 -- the paper's symbol S
+    motion: ReachMotion
+    q0_S: float  # noqa: N815 -- the paper's symbol S
+    end_families: tuple[Family, ...]
+    commit_time: float | None
+    best_family: int | None
+    start_families: tuple[Family, ...]
+    dt: float
+    joint_step: Array
+    gene_cells: IntArray
+    edges: IntArray
+    timings: dict[str, float] = field(default_factory=dict)
+    options: ReachOptions = field(default_factory=ReachOptions)
+
+    @property
+    def gene_speed(self) -> Array:
+        """The largest gene speed [rad/s] the transition model allows, ``r_a h / Δt``, per gene."""
+        return np.asarray(self.gene_cells * math.radians(self.options.resolution_deg) / self.dt, dtype=float)
+
+    def summary(self) -> dict[str, Any]:
+        """The figures of merit as plain JSON-ready values (angles in degrees, times in seconds)."""
+
+        def family(f: Family) -> dict[str, Any]:
+            row: dict[str, Any] = {
+                "label": f.label,
+                "cells": f.cells,
+                "peak_genes_deg": [round(float(v), 3) for v in np.degrees(f.peak_genes)],
+                "peak_branch": f.peak_branch,
+                "peak_S": f.peak_S,
+            }
+            for key in ("alive_until", "finishes", "shared_until", "best_min_S", "holds_q0"):
+                value = getattr(f, key)
+                if value is not None:
+                    row[key] = value
+            return row
+
+        motion = self.motion
+        switches = np.flatnonzero(np.diff(motion.branch) != 0)
+        return {
+            "verdict": self.verdict(),
+            "exists": self.exists,
+            "dead_end": self.dead_end,
+            "best_min_S": None if not np.isfinite(self.best_min_S) else self.best_min_S,
+            "q0_S": self.q0_S,
+            "commit_time": self.commit_time,
+            "best_family": self.best_family,
+            "end_families": [family(f) for f in self.end_families],
+            "start_families": [family(f) for f in self.start_families],
+            "motion": {
+                "times": [float(t) for t in motion.times],
+                "q_deg": np.round(np.degrees(motion.q), 4).tolist(),
+                "S": [float(v) for v in motion.S],
+                "branch": [int(b) for b in motion.branch],
+                "min_S": None if not np.isfinite(motion.min_S) else motion.min_S,
+                "total_S": motion.total_S,
+                "elbow_switch_times": [float(0.5 * (motion.times[k] + motion.times[k + 1])) for k in switches],
+            },
+            "grid": {
+                "resolution_deg": self.options.resolution_deg,
+                "gene_axes_deg": [[round(math.degrees(float(a[0])), 4), round(math.degrees(float(a[-1])), 4), len(a)]
+                                  for a in self.axes],
+                "map_shape": list(self.shape),
+                "steps": len(self.times) - 1,
+                "dt": self.dt,
+                "joint_step_deg": [None if not np.isfinite(v) else round(math.degrees(v), 4) for v in self.joint_step],
+                "gene_cells_per_step": [int(r) for r in self.gene_cells],
+                "gene_speed_deg_s": [round(math.degrees(v), 4) for v in self.gene_speed],
+                "s_min": self.options.s_min,
+                "velocity_scale": self.options.velocity_scale,
+            },
+            "edges": int(self.edges.sum()),
+            "timings_s": {key: round(value, 4) for key, value in self.timings.items()},
+        }
+
+    def verdict(self) -> str:
+        """One line: whether a motion exists, else where the arm gets stuck."""
+        if self.exists:
+            return f"a collision-free tracking motion exists from q0 to t = {self.times[-1]:g} s"
+        if self.dead_end is None or self.dead_end <= self.times[0]:
+            return "no collision-free step from q0 at all"
+        return f"no collision-free tracking motion from q0: every motion is stuck by t = {self.dead_end:g} s"
+
+
+# ------------------------------------------------------------------------------------- model
+
+
+@dataclass(frozen=True)
+class _Model:
+    """Grid and transition-model constants."""
+
+    shape: tuple[int, ...]  # (n_1, ..., n_g) of the DP's gene grid
+    cells: int  # C = n_1 ... n_g
+    periodic: BoolArray  # (g,) genes without finite limits: axis over [0, 2 pi), wrapped
+    h: float  # grid step [rad]
+    delta: Array  # (n,) per-step joint bound [rad]
+    r: IntArray  # (g,) gene cells per step
+    rho: Array  # (n, L) sweep radii [m]
+    offsets: IntArray  # (K, g) gene offsets of one step
+    offset_sweep: Array  # (K, L) Σ_a |o_a| h ρ_al [m]
+    strides: IntArray  # (g,) of the flat gene index
+    q1_periodic: bool  # q_(n-1) without finite limits: compared modulo 2 pi, one representative
+    reps: IntArray  # (M,) shifts m of the representatives a + 2 pi m of q_(n-1) (a in [-pi, pi))
+    q1_limits: tuple[float, float]  # [rad]
+    elbow_offset: float  # c: q_n = beta + c along every motion from q0 [rad]
+    qn_limits: tuple[float, float]  # [rad]
+
+    @property
+    def M(self) -> int:  # noqa: N802 -- the number of representatives, as in the docstring
+        return int(self.reps.size)
+
+
+@dataclass(frozen=True)
+class _Layer:
+    """The feasible physical cells of one layer (``m`` of them) and which representatives are valid."""
+
+    t: float
+    cells: IntArray  # (m,) flat physical index b * C + gene, increasing
+    gene_index: IntArray  # (m, g)
+    branch: NDArray[np.int32]  # (m,)
+    genes: Array  # (m, g) gene values [rad] (the axis values: unwrapped for bounded genes)
+    q1: Array  # (m,) q_(n-1) wrapped to [-pi, pi) [rad]
+    beta: Array  # (m,) signed elbow angle [rad]
+    d_t: Array  # (L, m) capsule distances [m]
+    S: Array  # (m,)
+    valid: BoolArray  # (m, M) representative m of q_(n-1) within the joint limits
+
+    @property
+    def states(self) -> int:
+        return int(self.valid.size)
+
+
+def signed_elbow(red: PlanarRedundancy, Q: Array, branch: NDArray[np.integer[Any]]) -> Array:
+    """Signed elbow angle ``β`` [rad] of configurations ``(B, n)`` on ``branch`` ``(B,)``: ``|β|`` in [0, π],
+    positive on branch 0 and negative on branch 1 (``q_n = β + α_1 - α_2`` modulo 2π)."""
+    magnitude = np.abs(wrap_angle(Q[:, red.n - 1] - red.alpha1 + red.alpha2))
+    return np.where(branch == 0, magnitude, -magnitude)
+
+
+def _sweep_radii(robot: Robot) -> Array:
+    """``ρ`` ``(n, L)`` [m]: an upper bound on the distance from joint ``j`` to any point of guarded capsule
+    ``l`` (0 when joint ``j`` does not move it), whatever the configuration."""
+    chain = robot.planar
+    if chain is None:  # pragma: no cover - checked by the caller
+        raise PlanarOnlyError(f"robot {robot.name!r} is not planar")
+    lengths = np.hypot(chain.offsets[:, 0], chain.offsets[:, 1])  # |offset_k|: joint k-1 -> joint k
+    rho = np.zeros((robot.nq, len(chain.link_joints)))
+    for l_idx, (carrier, segment, radius) in enumerate(
+        zip(chain.link_joints, chain.link_segments, chain.link_radii, strict=True)
+    ):
+        reach = float(np.max(np.hypot(segment[:, 0], segment[:, 1]))) + float(radius)
+        for j in range(carrier + 1):
+            rho[j, l_idx] = float(np.sum(lengths[j + 1 : carrier + 1])) + reach
+    return rho
+
+
+def _bounded(lo: float, hi: float) -> bool:
+    return bool(np.isfinite(lo) and np.isfinite(hi))
+
+
+def _gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolArray]:
+    """The DP's gene axes [rad]: over the joint limits when they are finite (so a gene's value along a
+    motion is the joint's own value, limits included), else periodic over ``[0, 2π)``."""
+    axes: list[Array] = []
+    periodic: list[bool] = []
+    for lo, hi in zip(red.lower[: red.g], red.upper[: red.g], strict=True):
+        if _bounded(lo, hi):
+            count = int(np.floor((hi - lo) / h + 1e-9)) + 1
+            axes.append(lo + np.arange(count) * h)
+            periodic.append(False)
+        else:
+            count = max(1, round(TWO_PI / h))
+            axes.append(np.arange(count, dtype=np.float64) * (TWO_PI / count))
+            periodic.append(True)
+    return tuple(axes), np.array(periodic, dtype=bool)
+
+
+def _map_axes(g: int, h: float) -> tuple[Array, ...]:
+    """The figures' axes: ``[0, 2π)`` per gene, like the paper's maps."""
+    count = max(1, round(TWO_PI / h))
+    return tuple(np.arange(count, dtype=np.float64) * (TWO_PI / count) for _ in range(g))
+
+
+def _targets(model: _Model, gene_index: IntArray, offset: IntArray) -> tuple[IntArray, BoolArray]:
+    """Flat gene index of ``gene_index + offset`` ``(m,)`` and whether it lies on the grid."""
+    flat = np.zeros(gene_index.shape[0], dtype=np.int64)
+    ok = np.ones(gene_index.shape[0], dtype=bool)
+    for a, size in enumerate(model.shape):
+        index = gene_index[:, a] + offset[a]
+        if model.periodic[a]:
+            index %= size
+        else:
+            ok &= (index >= 0) & (index < size)
+            np.clip(index, 0, size - 1, out=index)
+        flat += index * model.strides[a]
+    return flat, ok
+
+
+def _layer(red: PlanarRedundancy, evaluator: Evaluator, model: _Model, axes: tuple[Array, ...], target: Array,
+           t: float, s_min: float, candidates: IntArray | None) -> _Layer:
+    """Solve and score the ``candidates`` (flat physical indices; ``None``: the whole grid) at ``t`` [s]; keep
+    the feasible ones: reachable, ``S > s_min``, ``q_n`` and some representative of ``q_(n-1)`` within limits."""
+    C = model.cells
+    if candidates is None:
+        index = np.arange(2 * C, dtype=np.int64)
+        if axes:
+            Q, reach = red.solve_grid(axes, target)
+        else:
+            Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
+    else:
+        index = np.asarray(candidates, dtype=np.int64)
+        genes = (np.stack([axes[a][i] for a, i in enumerate(np.unravel_index(index % C, model.shape))], axis=1)
+                 if axes else np.zeros((index.size, 0)))
+        Q, reach = red.solve(genes, index // C, target)
+    S = np.full(index.size, evaluator.potential.collision_value)
+    d = np.full((index.size, len(evaluator.robot.guarded_links)), -np.inf)
+    if reach.any():
+        ev = evaluator(Q[reach], t)
+        S[reach], d[reach] = ev.S, ev.link_distances
+    branch_all = (index // C).astype(np.int32)
+    beta = signed_elbow(red, Q, branch_all)
+    q1 = wrap_angle(Q[:, red.n - 2])
+    ok = reach & (s_min < S)
+    lo_n, hi_n = model.qn_limits
+    ok &= (beta + model.elbow_offset >= lo_n - 1e-9) & (beta + model.elbow_offset <= hi_n + 1e-9)
+    if model.q1_periodic:
+        valid = np.ones((index.size, 1), dtype=bool)
+    else:
+        lo, hi = model.q1_limits
+        u = q1[:, None] + TWO_PI * model.reps[None, :]
+        valid = (u >= lo - 1e-9) & (u <= hi + 1e-9)
+    ok &= valid.any(axis=1)
+    keep = np.flatnonzero(ok)
+    cells = index[keep]
+    gene_index = (np.stack(np.unravel_index(cells % C, model.shape), axis=1).astype(np.int64) if axes
+                  else np.zeros((cells.size, 0), dtype=np.int64))
+    genes = (np.stack([axes[a][gene_index[:, a]] for a in range(len(axes))], axis=1) if axes
+             else np.zeros((cells.size, 0)))
+    return _Layer(t=float(t), cells=cells, gene_index=gene_index, branch=branch_all[keep], genes=genes,
+                  q1=q1[keep], beta=beta[keep], d_t=np.ascontiguousarray(d[keep].T), S=S[keep], valid=valid[keep])
+
+
+def _lut(layer: _Layer, C: int) -> NDArray[np.int32]:
+    """Row of each flat physical index in ``layer`` (``-1``: not a feasible cell)."""
+    lut = np.full(2 * C, -1, dtype=np.int32)
+    lut[layer.cells] = np.arange(layer.cells.size, dtype=np.int32)
+    return lut
+
+
+def _dilate(model: _Model, layer: _Layer, rows: IntArray) -> IntArray:
+    """Flat physical indices (both branches) within one step's gene offsets of ``layer``'s ``rows``."""
+    C = model.cells
+    mask = np.zeros(C, dtype=bool)
+    gene_index = layer.gene_index[rows]
+    for offset in model.offsets:
+        flat, ok = _targets(model, gene_index, offset)
+        mask[flat[ok]] = True
+    genes = np.flatnonzero(mask)
+    return np.concatenate([genes, genes + C])
+
+
+def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float:
+    """Upper estimate [m] of how far any obstacle moves within ``[t0, t1]`` (its largest sampled speed x
+    ``t1 - t0``; 0 for static obstacles)."""
+    worst = 0.0
+    taus = np.linspace(t0, t1, substeps + 1)
+    for obstacle in scene.obstacles:
+        if isinstance(obstacle.motion, Static):
+            continue
+        positions = np.asarray(obstacle.motion.positions(taus), dtype=float)
+        speed = float(np.max(np.linalg.norm(np.diff(positions, axis=0), axis=1))) / max(taus[1] - taus[0], 1e-300)
+        worst = max(worst, speed * (t1 - t0))
+    return worst
+
+
+# -------------------------------------------------------------------------------------- edges
+
+
+def _step_ok(model: _Model, dst: _Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
+             src_d: Array, travel: float) -> tuple[BoolArray, NDArray[np.int8]]:
+    """The joint-speed and sweep conditions of ``P`` candidate steps into rows ``d_rows`` of ``dst``.
+
+    Args:
+        model: the transition model.
+        dst: the destination layer.
+        d_rows: ``(P,)`` destination rows.
+        gene_sweep: ``(P, L)`` [m], the genes' share of the sweep bound ``B_l``.
+        src_q1: ``(P,)`` the sources' ``q_(n-1)`` [rad] (wrapped, or a start value).
+        src_beta: ``(P,)`` the sources' signed elbow angles [rad].
+        src_d: ``(L, P)`` the sources' capsule distances [m] (a source may be ``q0``).
+        travel: bound [m] on the obstacles' motion during the step.
+
+    Returns:
+        ``ok`` ``(P,)`` and the representative shift ``(P,)`` of each step: ``q_(n-1)`` moves the short
+        way, ``u' = u + wrap(a' - a)``, so representative ``m`` of the source goes to ``m + shift``.
+    """
+    g = model.periodic.size
+    a_dst = dst.q1[d_rows]
+    d_q1 = wrap_angle(a_dst - src_q1)
+    shift = np.zeros(d_rows.size, dtype=np.int8)
+    if not model.q1_periodic:
+        shift = np.rint((src_q1 + d_q1 - a_dst) * (1.0 / TWO_PI)).astype(np.int8)
+    np.abs(d_q1, out=d_q1)
+    d_beta = np.abs(dst.beta[d_rows] - src_beta)
+    ok = (d_q1 <= model.delta[g]) & (d_beta <= model.delta[g + 1])
+    for l_idx in range(model.rho.shape[1]):
+        bound = gene_sweep[:, l_idx] + travel
+        if model.rho[g, l_idx]:
+            bound = bound + d_q1 * model.rho[g, l_idx]
+        if model.rho[g + 1, l_idx]:
+            bound = bound + d_beta * model.rho[g + 1, l_idx]
+        ok &= src_d[l_idx] + dst.d_t[l_idx, d_rows] > bound
+    return ok, shift
+
+
+@dataclass(frozen=True)
+class _Edges:
+    """The allowed transitions of one step between *states* (``row * M + m``), in groups within which every
+    source and every destination occurs at most once, so a group is applied with plain fancy indexing
+    (``out[dst] = max(out[dst], value[src])``) instead of the slower ``ufunc.at``."""
+
+    src: NDArray[np.int32]
+    dst: NDArray[np.int32]
+    bounds: IntArray  # group i is [bounds[i], bounds[i + 1])
+
+    @property
+    def size(self) -> int:
+        return int(self.src.size)
+
+    def groups(self) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
+        """``(src, dst)`` of each non-empty group."""
+        return [(self.src[a:b], self.dst[a:b]) for a, b in zip(self.bounds[:-1], self.bounds[1:], strict=True) if b > a]
+
+    def push_max(self, value: Array, size: int) -> Array:
+        """``out[c'] = max over edges c -> c' of value[c]`` (``-inf`` without an incoming edge)."""
+        out = np.full(size, -np.inf)
+        for s, d in self.groups():
+            out[d] = np.maximum(out[d], value[s])
+        return out
+
+    def pull_max(self, value: Array, size: int) -> Array:
+        """``out[c] = max over edges c -> c' of value[c']`` (``-inf`` without an outgoing edge)."""
+        out = np.full(size, -np.inf)
+        for s, d in self.groups():
+            out[s] = np.maximum(out[s], value[d])
+        return out
+
+    def push_or(self, bits: NDArray[np.uint64], size: int) -> NDArray[np.uint64]:
+        """``out[c'] = OR over edges c -> c' of bits[c]``."""
+        out = np.zeros(size, dtype=np.uint64)
+        for s, d in self.groups():
+            out[d] |= bits[s]
+        return out
+
+    def pull_or(self, bits: NDArray[np.uint64], size: int) -> NDArray[np.uint64]:
+        """``out[c] = OR over edges c -> c' of bits[c']``."""
+        out = np.zeros(size, dtype=np.uint64)
+        for s, d in self.groups():
+            out[s] |= bits[d]
+        return out
+
+
+def _expand(model: _Model, src: _Layer, dst: _Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
+            src_states: BoolArray | None) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
+    """Physical steps ``rows -> d_rows`` (unique on both sides) as state edges, one group per source
+    representative: ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state
+    in ``src_states`` when given)."""
+    M = model.M
+    out = []
+    for m in range(M):
+        m_dst = m + shift.astype(np.int64)
+        ok = src.valid[rows, m] & (m_dst >= 0) & (m_dst < M)
+        ok[ok] &= dst.valid[d_rows[ok], m_dst[ok]]
+        s_state = rows * M + m
+        if src_states is not None:
+            ok &= src_states[s_state]
+        out.append(((s_state[ok]).astype(np.int32), (d_rows[ok] * M + m_dst[ok]).astype(np.int32)))
+    return out
+
+
+def _grid_edges(model: _Model, src: _Layer, dst: _Layer, travel: float, src_states: BoolArray | None) -> _Edges:
+    """Allowed transitions from the states of ``src`` (those in ``src_states``, or all) to those of ``dst``: one
+    group per gene offset (same branch) and per gene offset and elbow switch (sources near the stretched
+    wrist), split by source representative."""
+    g = model.periodic.size
+    C = model.cells
+    lut = _lut(dst, C)
+    every = (np.arange(src.cells.size, dtype=np.int64) if src_states is None
+             else np.flatnonzero(src_states.reshape(-1, model.M).any(axis=1)))
+    near = every[np.abs(src.beta[every]) <= model.delta[g + 1]]
+    sources = [(every, src.branch[every].astype(np.int64) * C)]
+    if near.size:
+        sources.append((near, (1 - src.branch[near].astype(np.int64)) * C))
+    groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]] = []
+    for candidates, base in sources:
+        gene_index = src.gene_index[candidates]
+        for k, offset in enumerate(model.offsets):
+            flat, on_grid = _targets(model, gene_index, offset)
+            d_rows = lut[base + flat].astype(np.int64)
+            hit = (d_rows >= 0) & on_grid
+            rows, d_rows = candidates[hit], d_rows[hit]
+            sweep = np.broadcast_to(model.offset_sweep[k], (rows.size, model.rho.shape[1]))
+            ok, shift = _step_ok(model, dst, d_rows, sweep, src.q1[rows], src.beta[rows], src.d_t[:, rows], travel)
+            groups += _expand(model, src, dst, rows[ok], d_rows[ok], shift[ok], src_states)
+    return _pack(groups)
+
+
+def _pack(groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]]) -> _Edges:
+    if not groups:
+        return _Edges(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64))
+    sizes = np.array([0] + [s.size for s, _ in groups], dtype=np.int64)
+    return _Edges(np.concatenate([s for s, _ in groups]), np.concatenate([d for _, d in groups]), np.cumsum(sizes))
+
+
+def _start_states(model: _Model, q0: Array, beta0: float, d0: Array, dst: _Layer, travel: float) -> IntArray:
+    """States of ``dst`` reachable from ``q0`` in one step (``q0``'s genes and ``q_(n-1)`` are its own
+    unwrapped values)."""
+    g = model.periodic.size
+    rows = np.arange(dst.cells.size, dtype=np.int64)
+    gene_sweep = np.zeros((rows.size, model.rho.shape[1]))
+    ok = np.ones(rows.size, dtype=bool)
+    for a in range(g):
+        diff = dst.genes[:, a] - q0[a]
+        diff = np.abs(wrap_angle(diff) if model.periodic[a] else diff)
+        ok &= diff <= model.r[a] * model.h + 1e-12
+        gene_sweep += diff[:, None] * model.rho[a]
+    step_ok, _ = _step_ok(model, dst, rows, gene_sweep, np.full(rows.size, q0[g]), np.full(rows.size, beta0),
+                          np.repeat(np.asarray(d0, dtype=float)[:, None], rows.size, axis=1), travel)
+    ok &= step_ok
+    rows = rows[ok]
+    if model.q1_periodic:
+        return rows
+    u = q0[g] + wrap_angle(dst.q1[rows] - q0[g])  # the short way from q0's own value
+    m = np.rint((u - dst.q1[rows]) / TWO_PI).astype(np.int64) - int(model.reps[0])
+    inside = (m >= 0) & (m < model.M)
+    inside[inside] &= dst.valid[rows[inside], m[inside]]
+    return rows[inside] * model.M + m[inside]
+
+
+# ------------------------------------------------------------------------------------ families
+
+
+def _components(layer: _Layer, states: BoolArray, model: _Model, cross_beta: float) -> IntArray:
+    """Connected components of the layer's ``states`` ``(m M,)`` (a mask over ``row * M + m``).
+
+    Two states are adjacent when their cells are grid neighbours (the 3^g - 1 of them, within a branch)
+    or the two branches of one cell with ``|β| <= cross_beta`` on both, and ``q_(n-1)`` takes the short way
+    between them (the same representative rule as a step). Returns labels ``(m M,)``: ``-1`` outside the
+    mask, else ``0 .. K - 1`` by decreasing component size.
+    """
+    C, M, g = model.cells, model.M, model.periodic.size
+    labels = np.full(states.size, -1, dtype=np.int64)
+    chosen = np.flatnonzero(states)
+    if chosen.size == 0:
+        return labels
+    rows = np.unique(chosen // M)
+    lut = np.full(2 * C, -1, dtype=np.int64)
+    lut[layer.cells[rows]] = rows
+    us: list[IntArray] = []
+    vs: list[IntArray] = []
+
+    def link(a_rows: IntArray, b_rows: IntArray) -> None:
+        shift = np.zeros(a_rows.size, dtype=np.int64)
+        if not model.q1_periodic:
+            a, b = layer.q1[a_rows], layer.q1[b_rows]
+            shift = np.rint((a + wrap_angle(b - a) - b) / TWO_PI).astype(np.int64)
+        for m in range(M):
+            m_b = m + shift
+            ok = (m_b >= 0) & (m_b < M)
+            u, v = a_rows[ok] * M + m, b_rows[ok] * M + m_b[ok]
+            keep = states[u] & states[v]
+            us.append(u[keep])
+            vs.append(v[keep])
+
+    for offset in np.ndindex(*(3,) * g):
+        step = np.array(offset, dtype=np.int64) - 1
+        nonzero = np.flatnonzero(step)
+        if nonzero.size == 0 or step[nonzero[0]] < 0:  # one of each opposite pair
+            continue
+        flat, on_grid = _targets(model, layer.gene_index[rows], step)
+        other = lut[layer.branch[rows].astype(np.int64) * C + flat]
+        hit = on_grid & (other >= 0)
+        link(rows[hit], other[hit])
+    straight = rows[(layer.branch[rows] == 0) & (np.abs(layer.beta[rows]) <= cross_beta)]
+    partner = lut[layer.cells[straight] + C]
+    hit = partner >= 0
+    hit[hit] &= np.abs(layer.beta[partner[hit]]) <= cross_beta
+    link(straight[hit], partner[hit])
+    u, v = np.concatenate(us), np.concatenate(vs)
+    parent = np.arange(states.size, dtype=np.int64)
+    while True:  # hook roots onto the smaller root, then jump pointers to the roots
+        ru, rv = parent[u], parent[v]
+        differ = ru != rv
+        if not differ.any():
+            break
+        lo, hi = np.minimum(ru[differ], rv[differ]), np.maximum(ru[differ], rv[differ])
+        np.minimum.at(parent, hi, lo)
+        while True:
+            jumped = parent[parent]
+            if np.array_equal(jumped, parent):
+                break
+            parent = jumped
+    _, inverse, counts = np.unique(parent[chosen], return_inverse=True, return_counts=True)
+    order = np.argsort(-counts, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    labels[chosen] = rank[inverse]
+    return labels
+
+
+def _bits(labels: IntArray) -> NDArray[np.uint64]:
+    """One bit per label (labels beyond :data:`MAX_FAMILY_BITS` - 1 share the last bit); 0 for -1."""
+    capped = np.minimum(labels, MAX_FAMILY_BITS - 1)
+    return np.where(labels >= 0, np.left_shift(np.uint64(1), np.maximum(capped, 0).astype(np.uint64)),
+                    np.uint64(0)).astype(np.uint64)
+
+
+def _family_of(label: int, layer: _Layer, model: _Model, members: IntArray, **extra: object) -> Family:
+    """A family from its member states."""
+    rows = members // model.M
+    best = int(rows[int(np.argmax(layer.S[rows]))])
+    return Family(label=label, cells=int(members.size), peak_genes=layer.genes[best].copy(),
+                  peak_branch=int(layer.branch[best]), peak_S=float(layer.S[best]), **extra)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------------------- main
+
+
+def reach_over_time(
+    robot: Robot,
+    evaluator: Evaluator,
+    path: HandPath,
+    q0: Array,
+    duration: float,
+    options: ReachOptions | None = None,
+    *,
+    t_start: float = 0.0,
+) -> ReachResult:
+    """Reachability over the redundancy grid x time from ``q0`` (see the module docstring).
+
+    Args:
+        robot: a planar arm with at most 2 genes (2 to 4 joints).
+        evaluator: AMSIP evaluator (robot, scene, index, potential) -- the scene and hand target at
+            each layer time are read from it and from ``path``.
+        path: the desired hand path.
+        q0: start configuration ``(n,)`` [rad] at ``t_start`` (within the joint limits).
+        duration: horizon [s]; layers at ``t_start + k duration / N``.
+        options: grid and transition model.
+        t_start: start time [s].
+
+    Returns:
+        The verdict, the best motion, the families and commit time, and the maps.
+
+    Raises:
+        PlanarOnlyError: a spatial arm, or a planar arm with more than 2 genes.
+        ConfigurationError: a bad option, duration or ``q0``; a time step too short for the grid.
+    """
+    started, cpu_started = time.perf_counter(), time.process_time()
+    opts = options or ReachOptions()
+    if robot.planar is None:
+        raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
+    red = PlanarRedundancy(robot)
+    g, n = red.g, red.n
+    if g > 2:
+        raise PlanarOnlyError(f"reach-map: planar arms of 2 to 4 joints only (robot {robot.name!r} has {n} joints, "
+                              f"{g} genes: the grid would have {g} dimensions)")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise ConfigurationError(f"duration must be a positive number of seconds, got {duration!r}")
+    Q0, _ = robot.check_configurations(q0)
+    q0 = Q0[0]
+    lower, upper = robot.lower_limits, robot.upper_limits
+    outside = np.flatnonzero((q0 < lower - 1e-9) | (q0 > upper + 1e-9))
+    if outside.size:
+        j = int(outside[0])
+        raise ConfigurationError(f"q0: joint {j + 1} = {q0[j]:.6g} rad is outside its limits "
+                                 f"[{lower[j]:.6g}, {upper[j]:.6g}] rad")
+    N = opts.steps
+    dt = duration / N
+    h = math.radians(opts.resolution_deg)
+    limits = np.asarray(robot.velocity_limits, dtype=float)
+    limits = np.where(np.isfinite(limits) & (limits > 0), limits * opts.velocity_scale, np.inf)
+    delta = limits * dt
+    r = np.array([min(opts.max_step_cells, math.floor(delta[a] / h + 1e-9)) if np.isfinite(delta[a])
+                  else opts.max_step_cells for a in range(g)], dtype=np.int64)
+    if np.any(r < 1):
+        a = int(np.flatnonzero(r < 1)[0])
+        raise ConfigurationError(
+            f"time step {dt:.4g} s lets joint {a + 1} move only {math.degrees(delta[a]):.3g} deg, less than the grid "
+            f"step {opts.resolution_deg:g} deg: use fewer steps (now {N}) or a finer resolution")
+    axes, periodic = _gene_axes(red, h)
+    shape = tuple(len(a) for a in axes)
+    offsets = (np.array(list(np.ndindex(*(2 * r + 1))), dtype=np.int64) - r if g
+               else np.zeros((1, 0), dtype=np.int64))
+    rho = _sweep_radii(robot)
+    genes0, branch0 = red.genes_of(q0[None, :])
+    beta0 = float(signed_elbow(red, q0[None, :], branch0)[0])
+    lo1, hi1 = float(lower[n - 2]), float(upper[n - 2])
+    q1_periodic = not _bounded(lo1, hi1)
+    reps = (np.zeros(1, dtype=np.int64) if q1_periodic else  # a + 2 pi m within [lo, hi] for some a in [-pi, pi)
+            np.arange(math.ceil((lo1 - np.pi) / TWO_PI), math.floor((hi1 + np.pi) / TWO_PI) + 1, dtype=np.int64))
+    model = _Model(
+        shape=shape, cells=int(np.prod(shape)) if g else 1, periodic=periodic, h=h, delta=delta, r=r, rho=rho,
+        offsets=offsets, offset_sweep=(np.abs(offsets) * h) @ rho[:g] if g else np.zeros((1, rho.shape[1])),
+        strides=np.array([int(np.prod(shape[a + 1 :])) for a in range(g)], dtype=np.int64),
+        q1_periodic=q1_periodic, reps=reps, q1_limits=(lo1, hi1),
+        elbow_offset=float(q0[n - 1] - beta0), qn_limits=(float(lower[n - 1]), float(upper[n - 1])),
+    )
+    M = model.M
+    times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
+    lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
+    clock = {"maps": 0.0, "edges": 0.0}
+
+    def build(k: int, candidates: IntArray | None) -> _Layer:
+        tic = time.perf_counter()
+        layer = _layer(red, evaluator, model, axes, np.asarray(path.position(times[k]), float), float(times[k]),
+                       opts.s_min, candidates if lazy else None)
+        clock["maps"] += time.perf_counter() - tic
+        return layer
+
+    def connect(src: _Layer, dst: _Layer, k: int, states: BoolArray | None) -> _Edges:
+        tic = time.perf_counter()
+        edges = _grid_edges(model, src, dst, travel[k], states)
+        clock["edges"] += time.perf_counter() - tic
+        return edges
+
+    # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
+    ev0 = evaluator(q0[None, :], float(times[0]))
+    q0_S = float(ev0.S[0])
+    start_q = np.concatenate([np.where(periodic, genes0[0], q0[:g]), q0[g:]])  # bounded genes: q0's own values
+    travel = [_obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
+              for k in range(N)]
+    layers: list[_Layer] = [build(1, _start_box(model, axes, start_q))]  # layers[k - 1] is layer k
+    tic = time.perf_counter()
+    start = _start_states(model, start_q, beta0, ev0.link_distances[0], layers[0], travel[0])
+    clock["edges"] += time.perf_counter() - tic
+    W: list[Array] = [np.array([np.inf]), np.full(layers[0].states, -np.inf)]  # W[k]: layer k's states
+    W[1][start] = np.repeat(layers[0].S, M)[start]
+    hops: list[_Edges] = []  # hops[k - 1]: layer k -> k + 1
+    for k in range(1, N):
+        reached = W[k] > -np.inf
+        if not reached.any():
+            break
+        src = layers[k - 1]
+        dst = build(k + 1, _dilate(model, src, np.flatnonzero(reached.reshape(-1, M).any(axis=1))))
+        step = connect(src, dst, k, reached)
+        layers.append(dst)
+        hops.append(step)
+        W.append(np.minimum(step.push_max(W[k], dst.states), np.repeat(dst.S, M)))
+    K = max(k for k in range(len(W)) if np.any(W[k] > -np.inf))
+    exists = K == N
+    layers, hops = layers[:K], hops[: max(K - 1, 0)]
+
+    # ---- (c) best motion: max min S, then max total S
+    if K >= 1:
+        s_star = float(np.max(W[K]))
+        Z: list[Array] = [np.zeros(0)] * (K + 1)
+        Z[K] = np.where(W[K] >= s_star, np.repeat(layers[K - 1].S, M), -np.inf)
+        for k in range(K - 1, 0, -1):
+            best = hops[k - 1].pull_max(Z[k + 1], layers[k - 1].states)
+            Z[k] = np.where(W[k] >= s_star, np.repeat(layers[k - 1].S, M) + best, -np.inf)
+        states_path = [int(start[int(np.argmax(Z[1][start]))])]
+        for k in range(1, K):
+            out = hops[k - 1].dst[hops[k - 1].src == states_path[-1]]
+            states_path.append(int(out[int(np.argmax(Z[k + 1][out]))]))
+    else:
+        s_star = float("nan")
+        states_path = []
+    motion = _motion(model, layers, times, q0, q0_S, int(branch0[0]), states_path)
+
+    # ---- (b) end families (at t_K: the end, or the dead end), viable tube, commit time
+    reachable = [W[k] > -np.inf for k in range(1, K + 1)]  # [k - 1]
+    viable = [np.zeros(layer.states, dtype=bool) for layer in layers]
+    end_families: list[Family] = []
+    commit_time: float | None = None
+    best_family: int | None = None
+    if K >= 1:
+        labels = _components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
+        best_family = int(labels[states_path[-1]]) + 1
+        A: list[NDArray[np.uint64]] = [np.zeros(0, dtype=np.uint64)] * (K + 1)
+        A[K] = _bits(labels)
+        for k in range(K - 1, 0, -1):
+            A[k] = np.where(reachable[k - 1], hops[k - 1].pull_or(A[k + 1], layers[k - 1].states), np.uint64(0))
+        q0_bits = np.bitwise_or.reduce(A[1][start])
+        counts = [np.bitwise_count(a) for a in A]
+        many = [int(np.bitwise_count(q0_bits)) >= 2] + [bool(np.any(counts[k] >= 2)) for k in range(1, K + 1)]
+        commit_time = float(times[max(k for k in range(K + 1) if many[k])]) if any(many) else None
+        for k in range(1, K + 1):
+            viable[k - 1] = A[k] != 0
+        for label in range(int(labels.max()) + 1):
+            members = np.flatnonzero(labels == label)
+            bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
+            when = [k for k in range(1, K + 1) if np.any(((A[k] & bit) != 0) & (counts[k] >= 2))]
+            if not when and many[0]:
+                when = [0]
+            end_families.append(_family_of(label + 1, layers[K - 1], model, members,
+                                           shared_until=float(times[max(when)]) if when else None,
+                                           best_min_S=float(np.max(W[K][members]))))
+    t_dp = time.perf_counter()
+
+    # ---- the figures' S maps (over [0, 360) per gene) and the start families (both need whole grids)
+    map_axes = _map_axes(g, h)
+    map_layers = tuple(range(N + 1)) if not lazy else _spread(N, opts.map_times)
+    S_maps = np.stack([_whole_map(red, evaluator, map_axes, np.asarray(path.position(times[k]), float),
+                                  float(times[k])) for k in map_layers]) if map_layers else np.zeros(0, np.float32)
+    start_families: tuple[Family, ...] = ()
+    if opts.start_families:
+        start_families = _start_families(model, axes, N, times, lambda k: build(k, None),
+                                         lambda s, d, k: connect(s, d, k, None), start_q, int(branch0[0]), opts)
+    t_extras = time.perf_counter()
+
+    fold = _fold_index(model, axes, map_axes)
+    folded_shape = (2, *(len(a) for a in map_axes))
+
+    def folded(masks: list[BoolArray]) -> BoolArray:
+        out = np.zeros((N + 1, int(np.prod(folded_shape))), dtype=bool)
+        C_f = int(np.prod(folded_shape[1:]))
+        for k, (layer, mask) in enumerate(zip(layers, masks, strict=True), start=1):
+            rows = np.flatnonzero(mask.reshape(-1, M).any(axis=1))
+            cells = layer.cells[rows]
+            out[k, (cells // model.cells) * C_f + fold[cells % model.cells]] = True
+        return out.reshape((N + 1, *folded_shape))
+
+    return ReachResult(
+        times=times,
+        axes=axes,
+        map_axes=map_axes,
+        shape=folded_shape,
+        map_layers=map_layers,
+        S_maps=S_maps.reshape((len(map_layers), *folded_shape)).astype(np.float32),
+        reachable=folded(reachable),
+        viable=folded(viable),
+        exists=exists,
+        dead_end=None if exists else float(times[K]),
+        best_min_S=s_star,
+        motion=motion,
+        q0_S=q0_S,
+        end_families=tuple(end_families),
+        commit_time=commit_time,
+        best_family=best_family,
+        start_families=start_families,
+        dt=dt,
+        joint_step=delta,
+        gene_cells=r,
+        edges=np.array([start.size, *(e.size for e in hops)], dtype=np.int64),
+        timings={
+            "maps": clock["maps"],
+            "edges": clock["edges"],
+            "dp": t_dp - started - clock["maps"] - clock["edges"],
+            "extras": t_extras - t_dp,
+            "total": time.perf_counter() - started,
+            "cpu": time.process_time() - cpu_started,
+        },
+        options=opts,
+    )
+
+
+def _spread(N: int, count: int) -> tuple[int, ...]:
+    """``count`` layer indices spread evenly over ``0 .. N`` (the paper's Fig. 8 shows ten times)."""
+    if count <= 0:
+        return ()
+    return tuple(sorted({round(float(k)) for k in np.linspace(0, N, min(count, N + 1))}))
+
+
+def _whole_map(red: PlanarRedundancy, evaluator: Evaluator, axes: tuple[Array, ...], target: Array,
+               t: float) -> NDArray[np.float32]:
+    """S ``(2 C_f,)`` on the figures' grid at time ``t`` [s] (``collision_value`` where unreachable)."""
+    if axes:
+        Q, reach = red.solve_grid(axes, target)
+    else:
+        Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
+    S = np.full(Q.shape[0], evaluator.potential.collision_value)
+    if reach.any():
+        S[reach] = evaluator(Q[reach], t).S
+    return S.astype(np.float32)
+
+
+def _fold_index(model: _Model, axes: tuple[Array, ...], map_axes: tuple[Array, ...]) -> IntArray:
+    """For each flat gene index of the DP grid, the flat index of the figures' cell holding its angle."""
+    if not axes:
+        return np.zeros(1, dtype=np.int64)
+    per_axis = []
+    for axis, target in zip(axes, map_axes, strict=True):
+        step = TWO_PI / len(target)
+        per_axis.append(np.rint(np.mod(axis, TWO_PI) / step).astype(np.int64) % len(target))
+    mesh = np.meshgrid(*per_axis, indexing="ij")
+    return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
+
+
+def _start_box(model: _Model, axes: tuple[Array, ...], start_q: Array) -> IntArray:
+    """Flat physical indices (both branches) of the cells whose genes are within one step's gene bound of
+    ``start_q``."""
+    C = model.cells
+    if not axes:
+        return np.arange(2 * C, dtype=np.int64)
+    keep = []
+    for a, axis in enumerate(axes):
+        diff = axis - start_q[a]
+        diff = np.abs(wrap_angle(diff) if model.periodic[a] else diff)
+        keep.append(np.flatnonzero(diff <= model.r[a] * model.h + 1e-12))
+    if any(k.size == 0 for k in keep):
+        return np.zeros(0, dtype=np.int64)
+    mesh = np.meshgrid(*keep, indexing="ij")
+    genes = np.ravel_multi_index(tuple(m.ravel() for m in mesh), model.shape).astype(np.int64)
+    return np.concatenate([genes, genes + C])
+
+
+def _start_families(model: _Model, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
+                    start_q: Array, branch0: int, opts: ReachOptions) -> tuple[Family, ...]:
+    """Components of the feasible states at ``t_0`` and their fate (see the module docstring)."""
+    first = full(0)
+    if first.cells.size == 0:
+        return ()
+    every = first.valid.reshape(-1)
+    labels = _components(first, every, model, math.radians(opts.cross_adjacency_deg))
+    F = _bits(labels)
+    alive = np.zeros(N + 1, dtype=np.uint64)
+    shared = np.zeros(N + 1, dtype=np.uint64)
+    alive[0] = np.bitwise_or.reduce(F)
+    src = first
+    for k in range(N):
+        dst = full(k + 1)
+        F = connect(src, dst, k).push_or(F, dst.states)
+        alive[k + 1] = np.bitwise_or.reduce(F) if F.size else np.uint64(0)
+        multi = F[np.bitwise_count(F) >= 2]
+        shared[k + 1] = np.bitwise_or.reduce(multi) if multi.size else np.uint64(0)
+        src = dst
+    home = _home_state(model, axes, first, start_q, branch0)
+    home_label = int(labels[home]) if home >= 0 else -1
+    out = []
+    for label in range(int(labels.max()) + 1):
+        members = np.flatnonzero(labels == label)
+        bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
+        alive_k = [k for k in range(N + 1) if alive[k] & bit]
+        shared_k = [k for k in range(1, N + 1) if shared[k] & bit]
+        out.append(_family_of(label + 1, first, model, members, alive_until=float(times[max(alive_k)]),
+                              finishes=max(alive_k) == N, holds_q0=label == home_label,
+                              shared_until=float(times[max(shared_k)]) if shared_k else None))
+    return tuple(out)
+
+
+def _home_state(model: _Model, axes: tuple[Array, ...], layer: _Layer, start_q: Array, branch: int) -> int:
+    """The state of ``layer`` nearest to ``start_q`` on ``branch`` (its grid cell and ``q_(n-1)``'s
+    representative), or -1 if that cell is not feasible."""
+    g = model.periodic.size
+    flat = 0
+    for a in range(g):
+        if model.periodic[a]:
+            index = round(float(np.mod(start_q[a], TWO_PI)) / model.h) % model.shape[a]
+        else:
+            index = int(np.clip(round((start_q[a] - axes[a][0]) / model.h), 0, model.shape[a] - 1))
+        flat += index * int(model.strides[a])
+    row = np.flatnonzero(layer.cells == branch * model.cells + flat)
+    if row.size == 0:
+        return -1
+    m = 0 if model.q1_periodic else int(np.rint((start_q[g] - layer.q1[row[0]]) / TWO_PI)) - int(model.reps[0])
+    return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
+
+
+def _motion(model: _Model, layers: list[_Layer], times: Array, q0: Array, q0_S: float, branch0: int,
+            states: list[int]) -> ReachMotion:
+    """The motion through ``states`` (one per layer 1..K; ``layers[k - 1]`` is layer ``k``) from ``q0``: bounded
+    joints take their own values (genes: the axis values; ``q_(n-1)``: its representative; ``q_n``:
+    ``β + c``), periodic ones are unwrapped along the motion."""
+    g, M = model.periodic.size, model.M
+    K = len(states)
+    q = np.empty((K + 1, q0.size))
+    q[0] = q0
+    S = np.empty(K + 1)
+    S[0] = q0_S
+    branch = np.empty(K + 1, dtype=np.int64)
+    branch[0] = branch0
+    cells = np.full(K + 1, -1, dtype=np.int64)
+    for k, state in enumerate(states, start=1):
+        layer = layers[k - 1]
+        row, m = divmod(state, M)
+        genes = layer.genes[row]
+        for a in range(g):
+            q[k, a] = q[k - 1, a] + float(wrap_angle(genes[a] - q[k - 1, a])) if model.periodic[a] else genes[a]
+        if model.q1_periodic:
+            q[k, g] = q[k - 1, g] + float(wrap_angle(layer.q1[row] - q[k - 1, g]))
+        else:
+            q[k, g] = layer.q1[row] + TWO_PI * model.reps[m]
+        q[k, g + 1] = layer.beta[row] + model.elbow_offset
+        S[k] = layer.S[row]
+        branch[k] = layer.branch[row]
+        cells[k] = layer.cells[row]
+    return ReachMotion(times=times[: K + 1].copy(), q=q, S=S, branch=branch, cells=cells,
+                       min_S=float(S[1:].min()) if K else float("nan"),
+                       total_S=float(S[1:].sum()) if K else 0.0)

@@ -1,0 +1,483 @@
+"""Reachability over time (search/reachability.py): the DP against brute force on tiny grids, its best
+motion under the exact check, the typed error for spatial arms, and the ``reach-map`` command."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from previewctl.cli.main import main
+from previewctl.control.oracle import OracleController
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ConfigurationError
+from previewctl.index.evaluator import Evaluator
+from previewctl.path import HandPath
+from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.robot.load import load_robot, shipped_robots_dir
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import ConstantVelocity, Static
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.redundancy import wrap_angle
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, load_scenario
+from previewctl.types import Array
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+LINK = 0.75  # [m], planar4's links
+RADIUS = 0.03  # [m], its capsules
+
+
+def planar2_urdf(tmp: Path) -> Path:
+    """planar4 without its last two links: a 2-joint planar arm (no gene: two cells per layer)."""
+    text = (shipped_robots_dir() / "planar4.urdf").read_text()
+    start = text.index('<joint name="joint3"')
+    end = text.index('<joint name="tip_joint"')
+    text = text[:start] + text[end:].replace('<parent link="link4"/>', '<parent link="link2"/>', 1)
+    out = tmp / "planar2.urdf"
+    out.write_text(text.replace('name="planar4"', 'name="planar2"'))
+    return out
+
+
+def planar3_urdf(tmp: Path, limits: tuple[tuple[float, float], ...] | None = None) -> Path:
+    """planar4 without its last link: a 3-joint planar arm (one gene); optionally other joint limits [rad]."""
+    text = (shipped_robots_dir() / "planar4.urdf").read_text()
+    start = text.index('<joint name="joint4"')
+    end = text.index('<joint name="tip_joint"')
+    text = text[:start] + text[end:].replace('<parent link="link4"/>', '<parent link="link3"/>', 1)
+    if limits is not None:
+        full = 'lower="-6.283185307179586" upper="6.283185307179586"'
+        for lo, hi in limits:
+            text = text.replace(full, f'lower="{lo!r}" upper="{hi!r}" ', 1)
+    out = tmp / ("planar3.urdf" if limits is None else "planar3_limited.urdf")
+    out.write_text(text.replace('name="planar4"', 'name="planar3"'))
+    return out
+
+
+@pytest.fixture(scope="module")
+def planar3(tmp_path_factory: pytest.TempPathFactory) -> Robot:
+    return load_robot(str(planar3_urdf(tmp_path_factory.mktemp("planar3"))))
+
+
+@pytest.fixture(scope="module")
+def planar4() -> Robot:
+    return load_robot("planar4")
+
+
+def start_on_path(robot: Robot, path: HandPath, genes: tuple[float, ...], branch: int) -> Array:
+    red = PlanarRedundancy(robot)
+    Q, ok = red.solve(np.array([genes]), np.array([branch]), path.position(0.0))
+    assert ok[0]
+    return Q[0]
+
+
+# ------------------------------------------------------------------------------ brute force
+
+
+def sweep_radii(robot: Robot) -> Array:
+    """rho[j, l] for the straight planar chains of these tests: joint j (0-based) to the far end of
+    guarded link l (carried by joint l), plus the capsule radius."""
+    n, links = robot.nq, len(robot.guarded_links)
+    rho = np.zeros((n, links))
+    for l_idx in range(links):
+        for j in range(l_idx + 1):
+            rho[j, l_idx] = (l_idx + 1 - j) * LINK + RADIUS
+    return rho
+
+
+class Brute:
+    """Every path through the tiny grid, enumerated explicitly, in unwrapped joint space.
+
+    A state is a joint vector within the limits: genes on the grid over their limits, ``q_(n-1)`` one of
+    the values ``a + 2 pi m`` the closed form allows, ``q_n`` the signed elbow angle (no wrapping
+    anywhere). Transitions are checked pair by pair with plain differences.
+    """
+
+    def __init__(self, robot: Robot, evaluator: Evaluator, path: HandPath, q0: Array, duration: float,
+                 opts: ReachOptions) -> None:
+        red = PlanarRedundancy(robot)
+        g, n = red.g, robot.nq
+        N, h = opts.steps, np.radians(opts.resolution_deg)
+        dt = duration / N
+        lo, hi = robot.lower_limits, robot.upper_limits
+        axis = lo[0] + np.arange(int(np.floor((hi[0] - lo[0]) / h + 1e-9)) + 1) * h  # same limits on every gene
+        delta = robot.velocity_limits * opts.velocity_scale * dt
+        cap = min(opts.max_step_cells, int(np.floor(delta[0] / h + 1e-9))) * h
+        rho = sweep_radii(robot)
+        self.times = np.arange(N + 1) * dt
+        self.count = round(2 * np.pi / h)  # cells per gene of the figures' [0, 360) grid
+        travel = max((float(np.linalg.norm(np.diff(o.motion.positions([0.0, 1.0]), axis=0))) * dt
+                      for o in evaluator.scene.obstacles), default=0.0)
+        beta0 = float(np.abs(wrap_angle(q0[n - 1])) * (1 if q0[n - 1] >= 0 else -1))
+        genes = np.array(list(itertools.product(axis, repeat=g))) if g else np.zeros((1, 0))
+        gene_index = np.array(list(itertools.product(range(len(axis)), repeat=g))) if g else np.zeros((1, 0), int)
+        self.layers = []  # per time: dict of state arrays
+        for t in self.times:
+            rows = []
+            for branch in (0, 1):
+                Q, ok = red.solve(genes, np.full(len(genes), branch), path.position(t))
+                S = np.full(len(Q), -1.0)
+                d = np.full((len(Q), len(robot.guarded_links)), -np.inf)
+                ev = evaluator(Q[ok], t)
+                S[ok], d[ok] = ev.S, ev.link_distances
+                beta = np.abs(wrap_angle(Q[:, n - 1])) * (1 if branch == 0 else -1)
+                a = wrap_angle(Q[:, n - 2])
+                for m in (-2, -1, 0, 1, 2):
+                    u = a + 2 * np.pi * m
+                    keep = ok & (opts.s_min < S) & (u >= lo[n - 2] - 1e-9) & (u <= hi[n - 2] + 1e-9)
+                    keep &= (beta >= lo[n - 1] - 1e-9) & (beta <= hi[n - 1] + 1e-9)
+                    for i in np.flatnonzero(keep):
+                        rows.append((genes[i], gene_index[i], branch, u[i], beta[i], d[i], S[i]))
+            self.layers.append({
+                "genes": np.array([r[0] for r in rows]).reshape(len(rows), g),
+                "index": np.array([r[1] for r in rows]).reshape(len(rows), g),
+                "branch": np.array([r[2] for r in rows], dtype=int),
+                "u": np.array([r[3] for r in rows]),
+                "beta": np.array([r[4] for r in rows]),
+                "d": np.array([r[5] for r in rows]).reshape(len(rows), len(robot.guarded_links)),
+                "S": np.array([r[6] for r in rows]),
+            })
+
+        def allowed(src: dict, dst: dict) -> Array:
+            dgene = np.abs(dst["genes"][None, :, :] - src["genes"][:, None, :])
+            du = np.abs(dst["u"][None, :] - src["u"][:, None])
+            dbeta = np.abs(dst["beta"][None, :] - src["beta"][:, None])
+            ok = np.all(dgene <= min(cap, delta[0]) + 1e-9, axis=2) & (du <= delta[n - 2]) & (dbeta <= delta[n - 1])
+            moves = np.concatenate([dgene, du[..., None], dbeta[..., None]], axis=2)
+            ok &= np.all(src["d"][:, None, :] + dst["d"][None, :, :] > moves @ rho + travel, axis=2)
+            return ok
+
+        self.q0_S = float(evaluator(q0, 0.0).S[0])
+        start = {"genes": q0[None, :g], "u": q0[None, n - 2], "beta": np.array([beta0]),
+                 "d": evaluator(q0, 0.0).link_distances}
+        self.grid0 = allowed(self.layers[0], self.layers[1])
+        self.transitions = [allowed(start, self.layers[1])] + [
+            allowed(self.layers[k], self.layers[k + 1]) for k in range(1, N)
+        ]
+        prefixes = [np.zeros((1, 0), dtype=np.int64)]
+        current = np.zeros((1, 0), dtype=np.int64)
+        for k in range(N):
+            last = np.zeros(len(current), dtype=np.int64) if k == 0 else current[:, -1]
+            pairs = np.argwhere(self.transitions[k][last])
+            current = np.concatenate([current[pairs[:, 0]], pairs[:, 1:2]], axis=1)
+            prefixes.append(current)
+        self.prefixes = prefixes
+
+    def last_layer(self) -> int:
+        return max(k for k, p in enumerate(self.prefixes) if len(p))
+
+    def scores(self, k: int) -> tuple[Array, Array]:
+        paths = self.prefixes[k]
+        S = np.stack([self.layers[i + 1]["S"][paths[:, i]] for i in range(k)], axis=1)
+        return S.min(axis=1), S.sum(axis=1)
+
+    def q(self, k: int, state: int) -> Array:
+        layer = self.layers[k]
+        return np.concatenate([layer["genes"][state], [layer["u"][state], layer["beta"][state]]])
+
+    def folded(self, k: int, states: set[int]) -> set[tuple[int, ...]]:
+        """The figures' cells ``(branch, i_1, ...)`` over [0, 360) of these states."""
+        layer = self.layers[k]
+        step = 2 * np.pi / self.count
+        return {(int(layer["branch"][s]), *(int(v) for v in np.rint(np.mod(layer["genes"][s], 2 * np.pi) / step)
+                                               .astype(int) % self.count)) for s in states}
+
+
+def components(brute: Brute, k: int, states: set[int], cross: float) -> list[set[int]]:
+    """Connected components by breadth-first search: gene-grid neighbours on one branch, or the two branches
+    of one cell where |beta| <= cross on both, and q_(n-1) within pi (the short way)."""
+    layer = brute.layers[k]
+    index, branch, u, beta = layer["index"], layer["branch"], layer["u"], layer["beta"]
+
+    def adjacent(a: int, b: int) -> bool:
+        if abs(u[a] - u[b]) > np.pi:
+            return False
+        step = np.abs(index[a] - index[b]).max(initial=0)
+        if branch[a] == branch[b]:
+            return step == 1
+        return step == 0 and abs(beta[a]) <= cross and abs(beta[b]) <= cross
+
+    left, found = set(states), []
+    while left:
+        seed = left.pop()
+        comp, todo = {seed}, [seed]
+        while todo:
+            here = todo.pop()
+            for other in [s for s in left if adjacent(here, s)]:
+                left.remove(other)
+                comp.add(other)
+                todo.append(other)
+        found.append(comp)
+    return found
+
+
+def folded_result(result: ReachResult, k: int, which: str) -> set[tuple[int, ...]]:
+    return {tuple(int(v) for v in idx) for idx in np.argwhere(getattr(result, which)[k])}
+
+
+def check_against_brute(robot: Robot, scene: Scene, path: HandPath, q0: Array, duration: float,
+                        opts: ReachOptions) -> ReachResult:
+    evaluator = Evaluator(robot, scene)
+    result = reach_over_time(robot, evaluator, path, q0, duration, opts)
+    brute = Brute(robot, evaluator, path, q0, duration, opts)
+    N = opts.steps
+    K = brute.last_layer()
+    assert result.exists == (K == N)
+    assert (result.dead_end is None) == (K == N)
+    if K < N:
+        assert result.dead_end == pytest.approx(brute.times[K])
+    for k in range(1, N + 1):  # forward reachable sets, layer by layer
+        expected = set(brute.prefixes[k][:, -1].tolist()) if len(brute.prefixes[k]) else set()
+        assert folded_result(result, k, "reachable") == brute.folded(k, expected), f"layer {k}"
+    if K == 0:
+        assert np.isnan(result.best_min_S)
+        return result
+    # best bottleneck, then best total among the bottleneck-optimal paths; the motion is one of them
+    mins, sums = brute.scores(K)
+    s_star = mins.max()
+    assert result.best_min_S == pytest.approx(s_star, rel=1e-12)
+    best_total = sums[mins >= s_star].max()
+    motion = result.motion
+    assert motion.min_S == pytest.approx(s_star, rel=1e-12)
+    assert motion.total_S == pytest.approx(best_total, rel=1e-9)
+    best_paths = brute.prefixes[K][(mins >= s_star) & (sums >= best_total - 1e-9 * abs(best_total))]
+    assert any(np.allclose(motion.q[1:], [brute.q(k + 1, s) for k, s in enumerate(p)], atol=1e-9) for p in best_paths)
+    np.testing.assert_allclose(motion.q[0], q0)
+    if K == N:  # viable tube, end families and commit time
+        full = brute.prefixes[N]
+        for k in range(1, N + 1):
+            assert folded_result(result, k, "viable") == brute.folded(k, set(full[:, k - 1].tolist())), f"viable {k}"
+        comps = components(brute, N, set(full[:, -1].tolist()), np.radians(opts.cross_adjacency_deg))
+        assert sorted(f.cells for f in result.end_families) == sorted(len(c) for c in comps)
+        label = {c: i for i, comp in enumerate(comps) for c in comp}
+        family_of_path = np.array([label[c] for c in full[:, -1]])
+        shared = [len(comps) >= 2]  # q0 reaches every end family
+        for k in range(1, N + 1):
+            column = full[:, k - 1]
+            shared.append(any(len(set(family_of_path[column == c].tolist())) >= 2 for c in set(column.tolist())))
+        expected = max((k for k in range(N + 1) if shared[k]), default=None)
+        assert result.commit_time == (None if expected is None else pytest.approx(brute.times[expected]))
+        # the best motion ends in the family result.best_family names
+        end_state = next(s for s in comps[0] | set().union(*comps)
+                         if np.allclose(brute.q(N, s), motion.q[-1], atol=1e-9))
+        family = next(f for f in result.end_families if f.label == result.best_family)
+        assert family.cells == len(next(c for c in comps if end_state in c))
+    if opts.start_families:
+        comps = components(brute, 0, set(range(len(brute.layers[0]["S"]))), np.radians(opts.cross_adjacency_deg))
+        assert sorted(f.cells for f in result.start_families) == sorted(len(c) for c in comps)
+        for comp in comps:
+            alive = np.zeros(len(brute.layers[0]["S"]), dtype=bool)
+            alive[list(comp)] = True
+            last = 0
+            for k in range(N):
+                alive = (brute.grid0 if k == 0 else brute.transitions[k])[alive].any(axis=0)
+                if alive.any():
+                    last = k + 1
+            # the family of the same size whose lifetime matches (sizes can repeat)
+            assert any(f.cells == len(comp) and f.alive_until == pytest.approx(brute.times[last])
+                       and f.finishes == (last == N) for f in result.start_families)
+    return result
+
+
+# ------------------------------------------------------------------------------------- tests
+
+
+def test_planar3_matches_brute_force(planar3: Robot) -> None:
+    """One gene on a 30 deg grid, 5 steps of 1.1 s (two cells per step), a disc beside the path."""
+    path = HandPath(np.array([[1.2, 0.6], [0.9, 1.0]]), 5.5)
+    scene = Scene((Obstacle("disc", Sphere(0.25), Static(np.array([0.2, 1.1, 0.0]))),))
+    q0 = start_on_path(planar3, path, (0.3,), 0)
+    opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
+    result = check_against_brute(planar3, scene, path, q0, 5.5, opts)
+    assert result.exists
+    assert list(result.gene_cells) == [2]  # floor(1.1 rad / 30 deg)
+
+
+def test_planar3_narrow_joint_limits(tmp_path: Path) -> None:
+    """Joint limits narrower than a turn (q1 in [-2.5, 3], q2 in [-3.5, 0.5]): the limits cut states and
+    motions exactly as the enumeration in unwrapped joint space says."""
+    robot = load_robot(str(planar3_urdf(tmp_path, ((-2.5, 3.0), (-3.5, 0.5), (-6.2, 6.2)))))
+    path = HandPath(np.array([[1.2, 0.6], [0.9, 1.0]]), 5.5)
+    scene = Scene((Obstacle("disc", Sphere(0.25), Static(np.array([0.2, 1.1, 0.0]))),))
+    q0 = start_on_path(robot, path, (0.3,), 0)
+    opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
+    result = check_against_brute(robot, scene, path, q0, 5.5, opts)
+    assert np.all(result.motion.q >= robot.lower_limits - 1e-9) and np.all(result.motion.q <= robot.upper_limits + 1e-9)
+
+
+def test_planar2_no_gene(tmp_path: Path) -> None:
+    """A two-link arm has no redundancy: one cell per branch; the DP still tracks, and switches branch only
+    through the stretched elbow."""
+    robot = load_robot(str(planar2_urdf(tmp_path)))
+    path = HandPath(np.array([[1.2, 0.3], [1.0, 0.8]]), 4.0)
+    scene = Scene((Obstacle("disc", Sphere(0.2), Static(np.array([0.2, 1.2, 0.0]))),))
+    Q, ok = PlanarRedundancy(robot).solve(np.zeros((1, 0)), np.array([0]), path.position(0.0))
+    assert ok[0]
+    result = check_against_brute(robot, scene, path, Q[0], 4.0, ReachOptions(resolution_deg=30.0, steps=4))
+    assert result.map_axes == () and result.shape == (2,)
+
+
+def test_planar3_moving_obstacle_and_dead_end(planar3: Robot) -> None:
+    """A disc sweeping across the arm: the sweep bound includes the obstacle's travel; the brute force
+    agrees on where every motion gets stuck."""
+    path = HandPath(np.array([[1.2, 0.6], [0.9, 1.0]]), 5.5)
+    disc = Obstacle("disc", Sphere(0.3), ConstantVelocity(np.array([-0.6, 1.4, 0.0]), np.array([0.35, -0.1, 0.0])))
+    scene = Scene((disc,))
+    q0 = start_on_path(planar3, path, (0.3,), 0)
+    opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
+    check_against_brute(planar3, scene, path, q0, 5.5, opts)
+
+
+PLANAR4_CASES = {
+    # hand from A to B [m], discs (radius [m], centre [m]), q0 genes [rad] and branch; found by a seeded
+    # random search for what each case exercises
+    "two_end_families": ((1.4242, -0.0072), (1.5311, 0.2213), [(0.1653, (1.8065, 1.8811))], (3.0938, -2.8744), 0),
+    "many_paths": ((0.7952, 0.0257), (0.3779, 0.1754), [(0.2125, (1.6705, 1.5155)), (0.2843, (1.7727, 0.5644))],
+                   (0.0145, -2.9052), 0),
+    "dead_end": ((1.1623, 1.1885), (1.3626, 0.746), [(0.2233, (-0.822, -0.2829)), (0.2155, (0.7847, -0.0625))],
+                 (1.5354, 0.2063), 1),
+}
+
+
+@pytest.mark.parametrize("case", sorted(PLANAR4_CASES))
+def test_planar4_matches_brute_force(planar4: Robot, case: str) -> None:
+    """Two genes on a 45 deg grid, 4 steps of 0.8 s (one cell per step): reachable sets, bottleneck,
+    tie-break, viable tube, end families and commit time all equal the enumeration of every path."""
+    start, end, discs, genes, branch = PLANAR4_CASES[case]
+    path = HandPath(np.array([start, end]), 3.2)
+    scene = Scene(tuple(Obstacle(f"disc{i}", Sphere(r), Static(np.array([*c, 0.0]))) for i, (r, c) in enumerate(discs)))
+    q0 = start_on_path(planar4, path, genes, branch)
+    opts = ReachOptions(resolution_deg=45.0, steps=4, max_step_cells=3, start_families=True)
+    result = check_against_brute(planar4, scene, path, q0, 3.2, opts)
+    assert result.start_families and sum(f.holds_q0 is True for f in result.start_families) == 1
+    if case == "two_end_families":
+        assert result.exists and len(result.end_families) == 2 and result.commit_time == pytest.approx(1.6)
+    elif case == "dead_end":
+        assert not result.exists and result.dead_end == pytest.approx(2.4)
+        assert "stuck by t = 2.4 s" in result.verdict()
+
+
+def test_planar3_two_end_families(planar3: Robot) -> None:
+    """One gene, 30 deg grid, 5 steps of 0.8 s: two end families, the arm must choose at the last step."""
+    path = HandPath(np.array([[1.0068, 0.3411], [0.7231, -0.0582]]), 4.0)
+    scene = Scene((Obstacle("a", Sphere(0.2404), Static(np.array([0.0975, 1.6421, 0.0]))),
+                   Obstacle("b", Sphere(0.267), Static(np.array([-0.1522, 1.9079, 0.0])))))
+    q0 = start_on_path(planar3, path, (0.5784,), 0)
+    result = check_against_brute(planar3, scene, path, q0, 4.0, ReachOptions(resolution_deg=30.0, steps=5))
+    assert len(result.end_families) == 2 and result.commit_time == pytest.approx(3.2)
+
+
+# --------------------------------------------------------------- the canonical scene, exact check
+
+
+@pytest.fixture(scope="module")
+def canonical() -> tuple[Scenario, ReachResult]:
+    """paper_planar on a 4 deg grid (the figures' maps off): quick enough for a test."""
+    scenario = load_scenario(SCENARIOS / "paper_planar.toml")
+    evaluator = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
+    opts = ReachOptions(resolution_deg=4.0, steps=50, map_times=0)
+    return scenario, reach_over_time(scenario.robot, evaluator, scenario.path, scenario.q0, 50.0, opts)
+
+
+def test_best_motion_respects_speed_and_joint_limits(canonical: tuple[Scenario, ReachResult]) -> None:
+    scenario, result = canonical
+    robot, motion = scenario.robot, result.motion
+    assert result.exists and len(motion.times) == 51
+    step = np.abs(np.diff(motion.q, axis=0))
+    assert np.all(step <= robot.velocity_limits * result.dt + 1e-9)
+    assert np.all(motion.q >= robot.lower_limits - 1e-9) and np.all(motion.q <= robot.upper_limits + 1e-9)
+    # every sample after q0 puts the hand on the path
+    for t, q in zip(motion.times[1:], motion.q[1:], strict=True):
+        data = robot.model.createData()
+        pin.framesForwardKinematics(robot.model, data, q)
+        np.testing.assert_allclose(data.oMf[robot.tip_frame_id].translation[:2], scenario.path.position(t), atol=1e-9)
+    # the elbow changes branch only through the stretched wrist
+    for k in np.flatnonzero(np.diff(motion.branch) != 0):
+        assert abs(motion.q[k, 3]) + abs(motion.q[k + 1, 3]) <= robot.velocity_limits[3] * result.dt + 1e-9
+    assert motion.min_S == pytest.approx(result.best_min_S) and motion.min_S > 0
+
+
+def test_best_motion_is_collision_free_under_the_exact_check(canonical: tuple[Scenario, ReachResult]) -> None:
+    """The linear interpolation between the samples (20 points per step), checked on the robot with its
+    URDF collision geometry through Pinocchio + Coal (the simulator's exact check)."""
+    scenario, result = canonical
+    exact = Evaluator(scenario.exact_robot(), scenario.scene, scenario.index, scenario.potential, method="general")
+    motion = result.motion
+    fine = np.linspace(motion.times[0], motion.times[-1], 20 * (len(motion.times) - 1) + 1)
+    Q = np.stack([motion.at(t) for t in fine])
+    check = exact(Q, 0.0)  # static scene
+    assert not check.collision.any()
+    assert check.min_distance.min() > 0
+
+
+def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
+    path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
+    with pytest.raises(PlanarOnlyError, match=r"^reach-map: planar arms only \(robot 'panda' is spatial\)$"):
+        reach_over_time(panda, Evaluator(panda), path, panda.neutral(), 2.0)
+    with pytest.raises(PlanarOnlyError, match="planar arms only"):
+        OracleController(panda, ControllerParams(), Evaluator(panda))
+
+
+def test_options_name_the_bad_value() -> None:
+    with pytest.raises(ConfigurationError, match=r"resolution_deg must lie in \(0, 90\].*got 0"):
+        ReachOptions(resolution_deg=0)
+    with pytest.raises(ConfigurationError, match=r"steps must be an integer >= 1, got 2\.5"):
+        ReachOptions(steps=2.5)  # type: ignore[arg-type]
+    with pytest.raises(ConfigurationError, match=r"velocity_scale must lie in \(0, 1\], got 1.5"):
+        ReachOptions(velocity_scale=1.5)
+
+
+def test_time_step_too_short_for_the_grid(planar4: Robot) -> None:
+    path = HandPath(np.array([[1.6, 0.4], [1.2, 1.0]]), 1.0)
+    q0 = start_on_path(planar4, path, (0.2, 0.9), 1)
+    with pytest.raises(ConfigurationError, match=r"time step 0\.01 s lets joint 1 move only 0\.573 deg.*fewer steps"):
+        reach_over_time(planar4, Evaluator(planar4), path, q0, 1.0, ReachOptions(resolution_deg=2.0, steps=100))
+
+
+# -------------------------------------------------------------------------------- CLI, oracle
+
+
+def test_cli_reach_map_json_and_files(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    code = main(["reach-map", str(SCENARIOS / "planar_free.toml"), "--resolution", "6", "--steps", "10",
+                 "--out", str(tmp_path), "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["scenario"] == "planar_free" and report["exists"] is True
+    assert report["best_min_S"] > 0 and (report["commit_time"] is None or 0 <= report["commit_time"] <= 5)
+    assert report["grid"]["steps"] == 10 and report["grid"]["gene_cells_per_step"] == [3, 3]
+    assert len(report["motion"]["times"]) == 11
+    for name in ("reach_maps.png", "reach_motion.png", "reach.json", "reach_motion.npz"):
+        assert (tmp_path / name).stat().st_size > 0
+    saved = np.load(tmp_path / "reach_motion.npz")
+    assert saved["q"].shape == (11, 4)
+
+
+def test_cli_reach_map_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reach-map", str(SCENARIOS / "planar_free.toml"), "--resolution", "6", "--steps", "10"]) == 0
+    out = capsys.readouterr().out
+    for label in ("verdict", "best min S", "commit time", "time taken", "a collision-free tracking motion exists"):
+        assert label in out
+
+
+def test_cli_reach_map_spatial_robot(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reach-map", str(SCENARIOS / "panda_crossing.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err == "previewctl: error: reach-map: planar arms only (robot 'panda' is spatial)\n"
+
+
+def test_oracle_tracks_the_plan_without_collision() -> None:
+    """planar_free with the oracle: it plans at its first command and follows the plan through eq. 19."""
+    scenario = load_scenario(SCENARIOS / "planar_free.toml")
+    result = simulate(scenario, "oracle")
+    assert result.controller == "oracle"
+    assert not result.collision.any()
+    assert result.hand_error.max() < 5e-3
+    assert result.targets.shape == (len(result.t), 1, 4)
+    # the arm stays near its plan (the target is taken 0.1 s ahead on the plan)
+    gap = np.abs(result.q - result.targets[:, 0]).max()
+    assert gap < 0.15
