@@ -63,14 +63,16 @@ def build_parser() -> argparse.ArgumentParser:
     paper = sub.add_parser(
         "paper",
         help="the paper's planar experiment with every controller (the main job)",
-        description="Run the canonical planar scene (scenarios/paper_planar.toml: planar4 tracing five 0.75 m "
-        "segments along an inverted staircase in 50 s, with a pillar trap) with none, gradient, single "
-        "(t~ = 10 s), multi (t~ = 5 s, k = 0.3, 0.65, 0.05) and reach; print the comparison table; write "
-        "each run's log and figures to OUT/<controller>/ and OUT/summary.json.",
+        description="Run the canonical planar scenes (scenarios/paper_fitted.toml: planar4 tracing five 0.75 m "
+        "segments fitted to the paper's Table 3 along a target object, 50 s; scenarios/paper_planar.toml: the "
+        "inverted staircase with a pillar trap) with none, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
+        "k = 0.3, 0.65, 0.05) and reach; print one comparison table per scene; write each run's log and "
+        "figures to OUT/<scene>/<controller>/ and OUT/summary.json.",
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all five)")
     paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
     paper.set_defaults(func=cmd_paper)
 
