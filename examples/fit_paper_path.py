@@ -16,11 +16,11 @@ or the object. This script recovers them from the published numbers:
 3. **Object.** The hand traces the object's surface with the object on the side away from the arm (the
    left of the direction of travel) and the object is large (the paper: "the scale of our target object
    is huge"): the polygon A..F, then right to x = 3.2 m (beyond the arm's 3 m reach), up to 0.8 m above
-   the highest path point and back to above A. In the scene it is a closed shell of 2 cm boxes, one per
-   polygon edge (shortened at wedges under 90 deg so that no box pokes out of the polygon; the top and
-   right edges are inside the bulk) and two blocks of bulk inside it; a link cannot get inside without crossing the shell, so for the arm it is the solid
-   polygon. The object changes the
-   optima: on the free-space fit it buries the optima at C, E and F (the hand sits in narrow notches).
+   the highest path point and back to above A. In the scene it is a closed shell of 2 cm boxes along the
+   polygon's edges (shortened at wedges under 90 deg so that none pokes out; the top and right edges lie
+   in the bulk) and two blocks of bulk inside; a link cannot get inside without crossing the shell, so
+   for the arm it is the solid polygon. On the free-space fit the object buries the optima at C, E and F
+   (the hand sits in narrow notches and link 3 of the Table-3 configuration is inside the object).
 4. **Fit with the object.** Nelder-Mead on the directions again, now with the object rebuilt for every
    candidate path and AMSIP evaluated with it (1 deg windows of +-15 deg around the four free-space peaks
    of each point: the two families and their mirrors), from several starting paths.
@@ -92,7 +92,7 @@ def path_points(directions: Array) -> Array:
     return A + np.concatenate([np.zeros((1, 2)), np.cumsum(steps, axis=0)])
 
 
-def nelder_mead(f, x0: Array, step: float, iters: int, tol: float = 1e-3) -> tuple[Array, float]:  # noqa: ANN001
+def nelder_mead(f, x0: Array, step: float, iters: int, tol: float = 1e-3) -> tuple[Array, float]:
     """Minimise ``f`` from ``x0`` (plain Nelder-Mead: reflection, expansion, contraction, shrink)."""
     n = len(x0)
     X = np.vstack([x0, x0 + step * np.eye(n)])
@@ -174,7 +174,7 @@ def radial_profile(robot: Robot, free: Evaluator, radii: Array) -> Profile:
         grid = land.S_map[0]
         step = 360.0 / grid.shape[0]
         for f, peak in enumerate([p for p in land.peaks if p.branch == 0][:2]):
-            i, j = (int(round(v)) % grid.shape[0] for v in np.degrees(np.mod(peak.genes, 2 * np.pi)) / step)
+            i, j = (round(float(v)) % grid.shape[0] for v in np.degrees(np.mod(peak.genes, 2 * np.pi)) / step)
             fi, fj, s = _refine(grid, i, j)
             families[n, f] = (wrap(fi * step), wrap(fj * step), s)
     return Profile(np.asarray(radii, float), families)
@@ -217,7 +217,7 @@ def _free_error_grid(profile: Profile, X: Array, Y: Array, table: Array) -> Arra
 def free_fit(profile: Profile, max_turn: float, cell: float = 0.02, directions: int = 120) -> Array:
     """Segment directions [deg] minimising the free-space Table-3 error at B-F: dynamic programming over
     (position cell, incoming direction) with turns of at most ``max_turn`` [deg], then Nelder-Mead."""
-    n = int(round(6.0 / cell)) + 1
+    n = round(6.0 / cell) + 1
     xs = -3.0 + cell * np.arange(n)
     X, Y = np.meshgrid(xs, xs, indexing="ij")
     theta = np.arange(directions) * 360.0 / directions
@@ -382,7 +382,7 @@ def object_errors(scenario: Scenario, profile: Profile, directions: Array) -> Ar
         return None
     try:
         scene = scene_from_dict(object_boxes(points))
-    except Exception:  # noqa: BLE001 - a degenerate box (shorter than its trimming): no valid object
+    except Exception:  # a degenerate box (shorter than its trimming): no valid object
         return None
     evaluator = Evaluator(scenario.robot, scene, scenario.index, scenario.potential)
     red = PlanarRedundancy(scenario.robot)
@@ -452,8 +452,9 @@ def print_table3(title: str, rows: list[Row]) -> float:
               f"| {row.error[0]:+.0f}, {row.error[1]:+.0f} | {row.S:.0f} | {TABLE3_S[k]:.0f} "
               f"| {TABLE3_S[k] / row.S:.2f} | {row.ties} | {row.runner_up:.3f} |")
     errors = np.array([row.error for row in rows])
-    print(f"rms over B-F {np.sqrt(np.mean(errors[1:] ** 2)):.2f} deg, over A-F {np.sqrt(np.mean(errors ** 2)):.2f} deg, "
-          f"largest {np.abs(errors).max():.0f} deg (A is fixed by the paper: 7, 7 deg there).")
+    print(f"rms over B-F {np.sqrt(np.mean(errors[1:] ** 2)):.2f} deg, "
+          f"over A-F {np.sqrt(np.mean(errors ** 2)):.2f} deg, largest {np.abs(errors).max():.0f} deg "
+          "(A is fixed by the paper: 7, 7 deg there).")
     return float(np.abs(errors).max())
 
 
@@ -476,8 +477,10 @@ def table1(robot: Robot, evaluator: Evaluator, free: Evaluator, points: Array, t
     print("  paper: " + ", ".join(f"peak{k + 1}* {v / paper0[0]:.3f}" for k, v in enumerate(paper0)))
     names = ["peak1*", "peak4*", "peak2*", "peak3*"]  # our free-space peaks in S order, matched by S ratio
     tracked: list[tuple[str, float, float] | None] = [(n, q1, q2) for n, (q1, q2, _) in zip(names, free0, strict=True)]
-    print("  (matched by S ratio: ours in S order = paper's peak1*, peak4*, peak2*, peak3*; peak2*/peak4* are within 3 %)")
-    print("\nWith the object, elbow branch 0, peaks tracked from the free-space t = 0 peaks (nearest peak within 40 deg):")
+    print("  (matched by S ratio: ours in S order = paper's peak1*, peak4*, peak2*, peak3*; "
+          "peak2*/peak4* are within 3 %)")
+    print("\nWith the object, elbow branch 0, peaks tracked from the free-space t = 0 peaks "
+          "(nearest peak within 40 deg):")
     print("| t [s] | " + " | ".join(f"{n} q1, q2: S" for n in names)
           + " | best of branch 0 | peaks S > 0 | paper peak1* .. peak4* | paper / ours, peak1* |")
     print("|---|---|---|---|---|---|---|---|---|")
