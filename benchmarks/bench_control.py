@@ -45,7 +45,7 @@ def main() -> None:
     duration = 2.0 if args.quick else 10.0
     header = f"{'scene (multi, p = 3, population 64)':<34}{'cycles':<14}"
     print(f"{header}{'median':>9}{'p99':>9}{'worst':>9}{'of 33ms':>10}")
-    report("planar4, paper_planar", multi(canonical_scenario(), duration))
+    report("planar4, paper_planar", multi(canonical_scenario("paper_planar"), duration))
     panda = load_scenario(shipped_scenarios_dir() / "panda_crossing.toml")
     report("panda (convex), panda_crossing", multi(panda, duration))
     capsules = dataclasses.replace(panda, robot=panda.robot_spec.load("capsules"))

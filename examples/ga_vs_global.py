@@ -28,7 +28,7 @@ from previewctl.search.maps import redundancy_map
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.paper import canonical_scenario
 
-SCENARIO = canonical_scenario()
+SCENARIO = canonical_scenario("paper_planar")
 PATH = np.asarray(SCENARIO.path.waypoints)
 FRAMES = (1, 5, 30)
 

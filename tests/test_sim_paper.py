@@ -15,21 +15,23 @@ from previewctl.control.params import CONTROLLER_NAMES, ControllerSpec
 from previewctl.errors import PreviewctlError
 from previewctl.kinematics import kinematics
 from previewctl.sim.loop import simulate
-from previewctl.sim.paper import PAPER_CONTROLLERS, canonical_scenario, with_controller
+from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, canonical_scenario, with_controller
 
 
-def test_canonical_scene_matches_the_paper_numbers() -> None:
-    scenario = canonical_scenario()
+@pytest.mark.parametrize("name", CANONICAL_SCENES)
+def test_canonical_scenes_match_the_paper_numbers(name: str) -> None:
+    scenario = canonical_scenario(name)
     waypoints = np.asarray(scenario.path.waypoints)
     np.testing.assert_allclose(waypoints[0], [0.10, 1.40])  # A
-    np.testing.assert_allclose(np.linalg.norm(np.diff(waypoints, axis=0), axis=1), 0.75)  # five 0.75 m segments
+    segments = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
+    np.testing.assert_allclose(segments, 0.75, atol=5e-4)  # five 0.75 m segments (fitted ones to 0.1 mm)
     assert len(waypoints) == 6 and scenario.path.duration == 50.0
-    np.testing.assert_allclose(scenario.path.waypoint_times(), [0, 10, 20, 30, 40, 50])
-    assert scenario.robot.name == "planar4"
+    np.testing.assert_allclose(scenario.path.waypoint_times(), [0, 10, 20, 30, 40, 50], atol=1e-3)
+    assert scenario.robot.name == "planar4" and scenario.name == name
 
 
 def test_paper_controllers_use_the_paper_parameters() -> None:
-    scenario = canonical_scenario()
+    scenario = canonical_scenario("paper_planar")
     # start from values that are not the paper's (the scenario file already holds multi's), so the
     # paper's values are seen to come from with_controller, which leaves every other parameter alone
     params = dataclasses.replace(scenario.controller.params, preview_time=1.0, weights=(0.5, 0.5), gain=(3.0,))
@@ -47,24 +49,28 @@ def test_paper_controllers_use_the_paper_parameters() -> None:
         with_controller(scenario, "fast")
 
 
-def test_paper_command_runs_the_canonical_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Plain tracking keeps the start configuration's elbow-right family and hits the trap."""
+def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Both scenes, fitted first; on the staircase plain tracking keeps the elbow-right family and hits the trap."""
     out = tmp_path / "paper"
     assert main(["paper", "--controllers", "none", "--out", str(out), "--no-gif"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert list(summary) == ["none"]
-    none = summary["none"]
+    assert list(summary) == list(CANONICAL_SCENES) == ["paper_fitted", "paper_planar"]
+    assert all(list(runs) == ["none"] for runs in summary.values())
+    assert json.loads((out / "paper_fitted" / "summary.json").read_text()) == summary["paper_fitted"]
+    assert (out / "paper_fitted" / "none" / "run.npz").is_file()
+    none = summary["paper_planar"]["none"]
     assert none["collided"] and none["collision_link"] == "link3"
     assert 28.0 < none["collision_time"] < 30.5  # link 3 meets the corner at C as the hand nears D
     assert none["max_hand_error"] < 1e-3
-    assert (out / "none" / "run.npz").is_file() and (out / "none" / "strobe.png").is_file()
+    assert (out / "paper_planar" / "none" / "run.npz").is_file()
+    assert (out / "paper_planar" / "none" / "strobe.png").is_file()
     table = capsys.readouterr().out
-    assert "none" in table and "link3" in table
+    assert table.index("paper_fitted (") < table.index("paper_planar (") and "link3" in table
 
 
 def test_short_multi_preview_run_tracks_without_collision() -> None:
     """The first 5 s of the paper scene with three-preview control: on the path, no contact."""
-    scenario = with_controller(canonical_scenario(), "multi")
+    scenario = with_controller(canonical_scenario("paper_planar"), "multi")
     short = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=5.0))
     result = simulate(short, "multi")
     summary = result.summary()

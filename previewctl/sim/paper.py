@@ -1,4 +1,10 @@
-"""The paper's planar experiment (section 7) with every controller, on the canonical scene.
+"""The paper's planar experiment (section 7) with every controller, on the canonical scenes.
+
+The canonical scenes (:data:`CANONICAL_SCENES`, in the order ``previewctl paper`` runs them):
+
+* ``paper_fitted``: the path fitted to the paper's Table 3 (global optima at A-F) with the object the
+  hand traces (``examples/fit_paper_path.py`` recomputes the fit);
+* ``paper_planar``: the inverted staircase with a pillar, a harder trap of two mirror families.
 
 Controllers and their parameters (the paper's where it gives them):
 
@@ -12,6 +18,7 @@ Controllers and their parameters (the paper's where it gives them):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 from collections.abc import Callable, Sequence
@@ -43,9 +50,19 @@ def shipped_scenarios_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "scenarios"
 
 
-def canonical_scenario() -> Scenario:
-    """The canonical planar scene, ``scenarios/paper_planar.toml``."""
-    return load_scenario(shipped_scenarios_dir() / "paper_planar.toml")
+CANONICAL_SCENES: tuple[str, ...] = ("paper_fitted", "paper_planar")
+"""The canonical planar scenes (``scenarios/<name>.toml``), the one fitted to the paper's tables first."""
+
+
+def canonical_scenario(name: str = CANONICAL_SCENES[0]) -> Scenario:
+    """A canonical planar scene, ``scenarios/<name>.toml`` (default: the Table-3 fit, ``paper_fitted``).
+
+    Raises:
+        PreviewctlError: ``name`` is not one of :data:`CANONICAL_SCENES`.
+    """
+    if name not in CANONICAL_SCENES:
+        raise PreviewctlError(f"unknown canonical scene {name!r}; valid: {', '.join(CANONICAL_SCENES)}")
+    return load_scenario(shipped_scenarios_dir() / f"{name}.toml")
 
 
 def with_controller(scenario: Scenario, name: str) -> Scenario:
@@ -65,13 +82,13 @@ def run_paper(
     progress: Callable[[str], Callable[[float, float], None]] | None = None,
     after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
 ) -> dict[str, dict[str, Any]]:
-    """Run the canonical scene with each controller; write each run and ``summary.json``.
+    """Run one scene with each controller; write each run and ``summary.json``.
 
     Args:
         out_dir: output folder; each controller's log goes to ``out_dir/<name>/``.
         controllers: which controllers, in order.
         seed: random seed (default: the scenario's).
-        scenario: the scene (default :func:`canonical_scenario`).
+        scenario: the scene (default :func:`canonical_scenario`, the Table-3 fit).
         progress: ``progress(name)`` returns the progress callback of that controller's run.
         after_run: called after each run with (name, scenario, result, folder), e.g. to draw figures.
 
@@ -93,3 +110,46 @@ def run_paper(
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(out / "summary.json", text)
     return summaries
+
+
+def run_paper_scenes(
+    out_dir: str | os.PathLike[str],
+    *,
+    scenes: Sequence[str] = CANONICAL_SCENES,
+    controllers: Sequence[str] = tuple(PAPER_CONTROLLERS),
+    seed: int | None = None,
+    progress: Callable[[str, str], Callable[[float, float], None]] | None = None,
+    after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
+) -> dict[str, dict[str, dict[str, Any]]]:
+    """:func:`run_paper` on each canonical scene, into ``out_dir/<scene>/<controller>/``.
+
+    Args:
+        out_dir: output folder; ``out_dir/<scene>/summary.json`` per scene and ``out_dir/summary.json``
+            with every scene.
+        scenes: which canonical scenes, in order (names of :data:`CANONICAL_SCENES`).
+        controllers: which controllers, in order.
+        seed: random seed (default: each scenario's).
+        progress: ``progress(scene, controller)`` returns the progress callback of that run.
+        after_run: as in :func:`run_paper`.
+
+    Returns:
+        ``{scene: {controller: summary}}`` (also written, atomically, to ``out_dir/summary.json``).
+
+    Raises:
+        PreviewctlError: an unknown scene or controller name (checked before anything runs).
+    """
+    for name in controllers:
+        if name not in PAPER_CONTROLLERS:
+            raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
+    loaded = [canonical_scenario(scene) for scene in scenes]
+    out = Path(out_dir)
+    results: dict[str, dict[str, dict[str, Any]]] = {}
+    for scene, scenario in zip(scenes, loaded, strict=True):
+        per_run = None if progress is None else functools.partial(progress, scene)
+        results[scene] = run_paper(
+            out / scene, controllers=controllers, seed=seed, scenario=scenario, progress=per_run, after_run=after_run
+        )
+    text = (json.dumps(results, indent=2) + "\n").encode("utf-8")
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(out / "summary.json", text)
+    return results
