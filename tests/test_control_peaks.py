@@ -109,7 +109,7 @@ def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar4: Robo
 
 
 def _short(name: str, coherent: bool, duration: float = 3.0) -> RunResult:
-    scenario = canonical_scenario()
+    scenario = canonical_scenario("paper_planar")
     params = dataclasses.replace(scenario.controller.params, coherent=coherent)
     scenario = dataclasses.replace(
         scenario,
