@@ -94,6 +94,7 @@ from previewctl.robot.joints import FULL_TURN as TWO_PI
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
+from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow, targets
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
 from previewctl.search.reachability.result import Family, ReachMotion, ReachResult
 from previewctl.search.redundancy import wrap_angle
@@ -104,31 +105,6 @@ MAX_FAMILY_BITS = 63
 
 
 # ------------------------------------------------------------------------------------- model
-
-
-@dataclass(frozen=True)
-class _Model:
-    """Grid and transition-model constants."""
-
-    shape: tuple[int, ...]  # (n_1, ..., n_g) of the DP's gene grid
-    cells: int  # C = n_1 ... n_g
-    periodic: BoolArray  # (g,) genes without finite limits: axis over [0, 2 pi), wrapped
-    h: float  # grid step [rad]
-    delta: Array  # (n,) per-step joint bound [rad]
-    r: IntArray  # (g,) gene cells per step
-    rho: Array  # (n, L) sweep radii [m]
-    offsets: IntArray  # (K, g) gene offsets of one step
-    offset_sweep: Array  # (K, L) Σ_a |o_a| h ρ_al [m]
-    strides: IntArray  # (g,) of the flat gene index
-    q1_periodic: bool  # q_(n-1) without finite limits: compared modulo 2 pi, one representative
-    reps: IntArray  # (M,) shifts m of the representatives a + 2 pi m of q_(n-1) (a in [-pi, pi))
-    q1_limits: tuple[float, float]  # [rad]
-    elbow_offset: float  # c: q_n = beta + c along every motion from q0 [rad]
-    qn_limits: tuple[float, float]  # [rad]
-
-    @property
-    def M(self) -> int:  # noqa: N802 -- the number of representatives, as in the docstring
-        return int(self.reps.size)
 
 
 @dataclass(frozen=True)
@@ -151,73 +127,13 @@ class _Layer:
         return int(self.valid.size)
 
 
-def signed_elbow(red: PlanarRedundancy, Q: Array, branch: NDArray[np.integer[Any]]) -> Array:
-    """Signed elbow angle ``β`` [rad] of configurations ``(B, n)`` on ``branch`` ``(B,)``: ``|β|`` in [0, π],
-    positive on branch 0 and negative on branch 1 (``q_n = β + α_1 - α_2`` modulo 2π)."""
-    magnitude = np.abs(wrap_angle(Q[:, red.n - 1] - red.alpha1 + red.alpha2))
-    return np.where(branch == 0, magnitude, -magnitude)
-
-
-def _sweep_radii(robot: Robot) -> Array:
-    """``ρ`` ``(n, L)`` [m]: an upper bound on the distance from joint ``j`` to any point of guarded capsule
-    ``l`` (0 when joint ``j`` does not move it), whatever the configuration."""
-    chain = robot.planar
-    if chain is None:  # pragma: no cover - checked by the caller
-        raise PlanarOnlyError(f"robot {robot.name!r} is not planar")
-    lengths = np.hypot(chain.offsets[:, 0], chain.offsets[:, 1])  # |offset_k|: joint k-1 -> joint k
-    rho = np.zeros((robot.nq, len(chain.link_joints)))
-    for l_idx, (carrier, segment, radius) in enumerate(
-        zip(chain.link_joints, chain.link_segments, chain.link_radii, strict=True)
-    ):
-        reach = float(np.max(np.hypot(segment[:, 0], segment[:, 1]))) + float(radius)
-        for j in range(carrier + 1):
-            rho[j, l_idx] = float(np.sum(lengths[j + 1 : carrier + 1])) + reach
-    return rho
-
-
-def _bounded(lo: float, hi: float) -> bool:
-    return bool(np.isfinite(lo) and np.isfinite(hi))
-
-
-def _gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolArray]:
-    """The DP's gene axes [rad]: over the joint limits when they are finite (so a gene's value along a
-    motion is the joint's own value, limits included), else periodic over ``[0, 2π)``."""
-    axes: list[Array] = []
-    periodic: list[bool] = []
-    for lo, hi in zip(red.lower[: red.g], red.upper[: red.g], strict=True):
-        if _bounded(lo, hi):
-            count = int(np.floor((hi - lo) / h + 1e-9)) + 1
-            axes.append(lo + np.arange(count) * h)
-            periodic.append(False)
-        else:
-            count = max(1, round(TWO_PI / h))
-            axes.append(np.arange(count, dtype=np.float64) * (TWO_PI / count))
-            periodic.append(True)
-    return tuple(axes), np.array(periodic, dtype=bool)
-
-
 def _map_axes(g: int, h: float) -> tuple[Array, ...]:
     """The figures' axes: ``[0, 2π)`` per gene, like the paper's maps."""
     count = max(1, round(TWO_PI / h))
     return tuple(np.arange(count, dtype=np.float64) * (TWO_PI / count) for _ in range(g))
 
 
-def _targets(model: _Model, gene_index: IntArray, offset: IntArray) -> tuple[IntArray, BoolArray]:
-    """Flat gene index of ``gene_index + offset`` ``(m,)`` and whether it lies on the grid."""
-    flat = np.zeros(gene_index.shape[0], dtype=np.int64)
-    ok = np.ones(gene_index.shape[0], dtype=bool)
-    for a, size in enumerate(model.shape):
-        index = gene_index[:, a] + offset[a]
-        if model.periodic[a]:
-            index %= size
-        else:
-            ok &= (index >= 0) & (index < size)
-            np.clip(index, 0, size - 1, out=index)
-        flat += index * model.strides[a]
-    return flat, ok
-
-
-def _layer(red: PlanarRedundancy, evaluator: Evaluator, model: _Model, axes: tuple[Array, ...], target: Array,
+def _layer(red: PlanarRedundancy, evaluator: Evaluator, model: GridModel, axes: tuple[Array, ...], target: Array,
            t: float, s_min: float, candidates: IntArray | None) -> _Layer:
     """Solve and score the ``candidates`` (flat physical indices; ``None``: the whole grid) at ``t`` [s]; keep
     the feasible ones: reachable, ``S > s_min``, ``q_n`` and some representative of ``q_(n-1)`` within limits."""
@@ -268,13 +184,13 @@ def _lut(layer: _Layer, C: int) -> NDArray[np.int32]:
     return lut
 
 
-def _dilate(model: _Model, layer: _Layer, rows: IntArray) -> IntArray:
+def _dilate(model: GridModel, layer: _Layer, rows: IntArray) -> IntArray:
     """Flat physical indices (both branches) within one step's gene offsets of ``layer``'s ``rows``."""
     C = model.cells
     mask = np.zeros(C, dtype=bool)
     gene_index = layer.gene_index[rows]
     for offset in model.offsets:
-        flat, ok = _targets(model, gene_index, offset)
+        flat, ok = targets(model, gene_index, offset)
         mask[flat[ok]] = True
     genes = np.flatnonzero(mask)
     return np.concatenate([genes, genes + C])
@@ -297,7 +213,7 @@ def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float
 # -------------------------------------------------------------------------------------- edges
 
 
-def _step_ok(model: _Model, dst: _Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
+def _step_ok(model: GridModel, dst: _Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
              src_d: Array, travel: float) -> tuple[BoolArray, NDArray[np.int8]]:
     """The joint-speed and sweep conditions of ``P`` candidate steps into rows ``d_rows`` of ``dst``.
 
@@ -381,7 +297,7 @@ class _Edges:
         return out
 
 
-def _expand(model: _Model, src: _Layer, dst: _Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
+def _expand(model: GridModel, src: _Layer, dst: _Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
             src_states: BoolArray | None) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
     """Physical steps ``rows -> d_rows`` (unique on both sides) as state edges, one group per source
     representative: ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state
@@ -399,7 +315,7 @@ def _expand(model: _Model, src: _Layer, dst: _Layer, rows: IntArray, d_rows: Int
     return out
 
 
-def _grid_edges(model: _Model, src: _Layer, dst: _Layer, travel: float, src_states: BoolArray | None) -> _Edges:
+def _grid_edges(model: GridModel, src: _Layer, dst: _Layer, travel: float, src_states: BoolArray | None) -> _Edges:
     """Allowed transitions from the states of ``src`` (those in ``src_states``, or all) to those of ``dst``: one
     group per gene offset (same branch) and per gene offset and elbow switch (sources near the stretched
     wrist), split by source representative."""
@@ -416,7 +332,7 @@ def _grid_edges(model: _Model, src: _Layer, dst: _Layer, travel: float, src_stat
     for candidates, base in sources:
         gene_index = src.gene_index[candidates]
         for k, offset in enumerate(model.offsets):
-            flat, on_grid = _targets(model, gene_index, offset)
+            flat, on_grid = targets(model, gene_index, offset)
             d_rows = lut[base + flat].astype(np.int64)
             hit = (d_rows >= 0) & on_grid
             rows, d_rows = candidates[hit], d_rows[hit]
@@ -433,7 +349,7 @@ def _pack(groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]]) -> _Edges:
     return _Edges(np.concatenate([s for s, _ in groups]), np.concatenate([d for _, d in groups]), np.cumsum(sizes))
 
 
-def _start_states(model: _Model, q0: Array, beta0: float, d0: Array, dst: _Layer, travel: float) -> IntArray:
+def _start_states(model: GridModel, q0: Array, beta0: float, d0: Array, dst: _Layer, travel: float) -> IntArray:
     """States of ``dst`` reachable from ``q0`` in one step (``q0``'s genes and ``q_(n-1)`` are its own
     unwrapped values)."""
     g = model.periodic.size
@@ -461,7 +377,7 @@ def _start_states(model: _Model, q0: Array, beta0: float, d0: Array, dst: _Layer
 # ------------------------------------------------------------------------------------ families
 
 
-def _components(layer: _Layer, states: BoolArray, model: _Model, cross_beta: float) -> IntArray:
+def _components(layer: _Layer, states: BoolArray, model: GridModel, cross_beta: float) -> IntArray:
     """Connected components of the layer's ``states`` ``(m M,)`` (a mask over ``row * M + m``).
 
     Two states are adjacent when their cells are grid neighbours (the 3^g - 1 of them, within a branch)
@@ -498,7 +414,7 @@ def _components(layer: _Layer, states: BoolArray, model: _Model, cross_beta: flo
         nonzero = np.flatnonzero(step)
         if nonzero.size == 0 or step[nonzero[0]] < 0:  # one of each opposite pair
             continue
-        flat, on_grid = _targets(model, layer.gene_index[rows], step)
+        flat, on_grid = targets(model, layer.gene_index[rows], step)
         other = lut[layer.branch[rows].astype(np.int64) * C + flat]
         hit = on_grid & (other >= 0)
         link(rows[hit], other[hit])
@@ -536,7 +452,7 @@ def _bits(labels: IntArray) -> NDArray[np.uint64]:
                     np.uint64(0)).astype(np.uint64)
 
 
-def _family_of(label: int, layer: _Layer, model: _Model, members: IntArray, **extra: object) -> Family:
+def _family_of(label: int, layer: _Layer, model: GridModel, members: IntArray, **extra: object) -> Family:
     """A family from its member states."""
     rows = members // model.M
     best = int(rows[int(np.argmax(layer.S[rows]))])
@@ -598,34 +514,9 @@ def reach_over_time(
     N = opts.steps
     dt = duration / N
     h = math.radians(opts.resolution_deg)
-    limits = np.asarray(robot.velocity_limits, dtype=float)
-    limits = np.where(np.isfinite(limits) & (limits > 0), limits * opts.velocity_scale, np.inf)
-    delta = limits * dt
-    r = np.array([min(opts.max_step_cells, math.floor(delta[a] / h + 1e-9)) if np.isfinite(delta[a])
-                  else opts.max_step_cells for a in range(g)], dtype=np.int64)
-    if np.any(r < 1):
-        a = int(np.flatnonzero(r < 1)[0])
-        raise ConfigurationError(
-            f"time step {dt:.4g} s lets joint {a + 1} move only {math.degrees(delta[a]):.3g} deg, less than the grid "
-            f"step {opts.resolution_deg:g} deg: use fewer steps (now {N}) or a finer resolution")
-    axes, periodic = _gene_axes(red, h)
-    shape = tuple(len(a) for a in axes)
-    offsets = (np.array(list(np.ndindex(*(2 * r + 1))), dtype=np.int64) - r if g
-               else np.zeros((1, 0), dtype=np.int64))
-    rho = _sweep_radii(robot)
-    genes0, branch0 = red.genes_of(q0[None, :])
-    beta0 = float(signed_elbow(red, q0[None, :], branch0)[0])
-    lo1, hi1 = float(lower[n - 2]), float(upper[n - 2])
-    q1_periodic = not _bounded(lo1, hi1)
-    reps = (np.zeros(1, dtype=np.int64) if q1_periodic else  # a + 2 pi m within [lo, hi] for some a in [-pi, pi)
-            np.arange(math.ceil((lo1 - np.pi) / TWO_PI), math.floor((hi1 + np.pi) / TWO_PI) + 1, dtype=np.int64))
-    model = _Model(
-        shape=shape, cells=int(np.prod(shape)) if g else 1, periodic=periodic, h=h, delta=delta, r=r, rho=rho,
-        offsets=offsets, offset_sweep=(np.abs(offsets) * h) @ rho[:g] if g else np.zeros((1, rho.shape[1])),
-        strides=np.array([int(np.prod(shape[a + 1 :])) for a in range(g)], dtype=np.int64),
-        q1_periodic=q1_periodic, reps=reps, q1_limits=(lo1, hi1),
-        elbow_offset=float(q0[n - 1] - beta0), qn_limits=(float(lower[n - 1]), float(upper[n - 1])),
-    )
+    model, start0 = grid_model(robot, red, opts, dt, q0)
+    axes, delta, r = model.axes, model.delta, model.r
+    beta0, branch0 = start0.beta, np.array([start0.branch])
     M = model.M
     times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
     lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
@@ -647,7 +538,7 @@ def reach_over_time(
     # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
     ev0 = evaluator(q0[None, :], float(times[0]))
     q0_S = float(ev0.S[0])
-    start_q = np.concatenate([np.where(periodic, genes0[0], q0[:g]), q0[g:]])  # bounded genes: q0's own values
+    start_q = start0.grid_q
     travel = [_obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
               for k in range(N)]
     layers: list[_Layer] = [build(1, _start_box(model, axes, start_q))]  # layers[k - 1] is layer k
@@ -795,7 +686,7 @@ def _whole_map(red: PlanarRedundancy, evaluator: Evaluator, axes: tuple[Array, .
     return S.astype(np.float32)
 
 
-def _fold_index(model: _Model, axes: tuple[Array, ...], map_axes: tuple[Array, ...]) -> IntArray:
+def _fold_index(model: GridModel, axes: tuple[Array, ...], map_axes: tuple[Array, ...]) -> IntArray:
     """For each flat gene index of the DP grid, the flat index of the figures' cell holding its angle."""
     if not axes:
         return np.zeros(1, dtype=np.int64)
@@ -807,7 +698,7 @@ def _fold_index(model: _Model, axes: tuple[Array, ...], map_axes: tuple[Array, .
     return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
 
 
-def _start_box(model: _Model, axes: tuple[Array, ...], start_q: Array) -> IntArray:
+def _start_box(model: GridModel, axes: tuple[Array, ...], start_q: Array) -> IntArray:
     """Flat physical indices (both branches) of the cells whose genes are within one step's gene bound of
     ``start_q``."""
     C = model.cells
@@ -825,7 +716,7 @@ def _start_box(model: _Model, axes: tuple[Array, ...], start_q: Array) -> IntArr
     return np.concatenate([genes, genes + C])
 
 
-def _start_families(model: _Model, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
+def _start_families(model: GridModel, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
                     start_q: Array, branch0: int, opts: ReachOptions) -> tuple[Family, ...]:
     """Components of the feasible states at ``t_0`` and their fate (see the module docstring)."""
     first = full(0)
@@ -859,7 +750,7 @@ def _start_families(model: _Model, axes: tuple[Array, ...], N: int, times: Array
     return tuple(out)
 
 
-def _home_state(model: _Model, axes: tuple[Array, ...], layer: _Layer, start_q: Array, branch: int) -> int:
+def _home_state(model: GridModel, axes: tuple[Array, ...], layer: _Layer, start_q: Array, branch: int) -> int:
     """The state of ``layer`` nearest to ``start_q`` on ``branch`` (its grid cell and ``q_(n-1)``'s
     representative), or -1 if that cell is not feasible."""
     g = model.periodic.size
@@ -877,7 +768,7 @@ def _home_state(model: _Model, axes: tuple[Array, ...], layer: _Layer, start_q: 
     return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
 
 
-def _motion(model: _Model, layers: list[_Layer], times: Array, q0: Array, q0_S: float, branch0: int,
+def _motion(model: GridModel, layers: list[_Layer], times: Array, q0: Array, q0_S: float, branch0: int,
             states: list[int]) -> ReachMotion:
     """The motion through ``states`` (one per layer 1..K; ``layers[k - 1]`` is layer ``k``) from ``q0``: bounded
     joints take their own values (genes: the axis values; ``q_(n-1)``: its representative; ``q_n``:
