@@ -95,10 +95,22 @@ from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
 from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow, targets
+from previewctl.search.reachability.layers import Layer, dilate, evaluate_layer, lut, start_box
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
 from previewctl.search.reachability.result import Family, ReachMotion, ReachResult
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array, BoolArray, IntArray
+
+__all__ = [
+    "MAX_FAMILY_BITS",
+    "Family",
+    "PlanarOnlyError",
+    "ReachMotion",
+    "ReachOptions",
+    "ReachResult",
+    "reach_over_time",
+    "signed_elbow",
+]
 
 MAX_FAMILY_BITS = 63
 """Families tracked with their own bit; smaller components beyond that share the last bit."""
@@ -107,93 +119,10 @@ MAX_FAMILY_BITS = 63
 # ------------------------------------------------------------------------------------- model
 
 
-@dataclass(frozen=True)
-class _Layer:
-    """The feasible physical cells of one layer (``m`` of them) and which representatives are valid."""
-
-    t: float
-    cells: IntArray  # (m,) flat physical index b * C + gene, increasing
-    gene_index: IntArray  # (m, g)
-    branch: NDArray[np.int32]  # (m,)
-    genes: Array  # (m, g) gene values [rad] (the axis values: unwrapped for bounded genes)
-    q1: Array  # (m,) q_(n-1) wrapped to [-pi, pi) [rad]
-    beta: Array  # (m,) signed elbow angle [rad]
-    d_t: Array  # (L, m) capsule distances [m]
-    S: Array  # (m,)
-    valid: BoolArray  # (m, M) representative m of q_(n-1) within the joint limits
-
-    @property
-    def states(self) -> int:
-        return int(self.valid.size)
-
-
 def _map_axes(g: int, h: float) -> tuple[Array, ...]:
     """The figures' axes: ``[0, 2π)`` per gene, like the paper's maps."""
     count = max(1, round(TWO_PI / h))
     return tuple(np.arange(count, dtype=np.float64) * (TWO_PI / count) for _ in range(g))
-
-
-def _layer(red: PlanarRedundancy, evaluator: Evaluator, model: GridModel, axes: tuple[Array, ...], target: Array,
-           t: float, s_min: float, candidates: IntArray | None) -> _Layer:
-    """Solve and score the ``candidates`` (flat physical indices; ``None``: the whole grid) at ``t`` [s]; keep
-    the feasible ones: reachable, ``S > s_min``, ``q_n`` and some representative of ``q_(n-1)`` within limits."""
-    C = model.cells
-    if candidates is None:
-        index = np.arange(2 * C, dtype=np.int64)
-        if axes:
-            Q, reach = red.solve_grid(axes, target)
-        else:
-            Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
-    else:
-        index = np.asarray(candidates, dtype=np.int64)
-        genes = (np.stack([axes[a][i] for a, i in enumerate(np.unravel_index(index % C, model.shape))], axis=1)
-                 if axes else np.zeros((index.size, 0)))
-        Q, reach = red.solve(genes, index // C, target)
-    S = np.full(index.size, evaluator.potential.collision_value)
-    d = np.full((index.size, len(evaluator.robot.guarded_links)), -np.inf)
-    if reach.any():
-        ev = evaluator(Q[reach], t)
-        S[reach], d[reach] = ev.S, ev.link_distances
-    branch_all = (index // C).astype(np.int32)
-    beta = signed_elbow(red, Q, branch_all)
-    q1 = wrap_angle(Q[:, red.n - 2])
-    ok = reach & (s_min < S)
-    lo_n, hi_n = model.qn_limits
-    ok &= (beta + model.elbow_offset >= lo_n - 1e-9) & (beta + model.elbow_offset <= hi_n + 1e-9)
-    if model.q1_periodic:
-        valid = np.ones((index.size, 1), dtype=bool)
-    else:
-        lo, hi = model.q1_limits
-        u = q1[:, None] + TWO_PI * model.reps[None, :]
-        valid = (u >= lo - 1e-9) & (u <= hi + 1e-9)
-    ok &= valid.any(axis=1)
-    keep = np.flatnonzero(ok)
-    cells = index[keep]
-    gene_index = (np.stack(np.unravel_index(cells % C, model.shape), axis=1).astype(np.int64) if axes
-                  else np.zeros((cells.size, 0), dtype=np.int64))
-    genes = (np.stack([axes[a][gene_index[:, a]] for a in range(len(axes))], axis=1) if axes
-             else np.zeros((cells.size, 0)))
-    return _Layer(t=float(t), cells=cells, gene_index=gene_index, branch=branch_all[keep], genes=genes,
-                  q1=q1[keep], beta=beta[keep], d_t=np.ascontiguousarray(d[keep].T), S=S[keep], valid=valid[keep])
-
-
-def _lut(layer: _Layer, C: int) -> NDArray[np.int32]:
-    """Row of each flat physical index in ``layer`` (``-1``: not a feasible cell)."""
-    lut = np.full(2 * C, -1, dtype=np.int32)
-    lut[layer.cells] = np.arange(layer.cells.size, dtype=np.int32)
-    return lut
-
-
-def _dilate(model: GridModel, layer: _Layer, rows: IntArray) -> IntArray:
-    """Flat physical indices (both branches) within one step's gene offsets of ``layer``'s ``rows``."""
-    C = model.cells
-    mask = np.zeros(C, dtype=bool)
-    gene_index = layer.gene_index[rows]
-    for offset in model.offsets:
-        flat, ok = targets(model, gene_index, offset)
-        mask[flat[ok]] = True
-    genes = np.flatnonzero(mask)
-    return np.concatenate([genes, genes + C])
 
 
 def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float:
@@ -213,7 +142,7 @@ def _obstacle_travel(scene: Scene, t0: float, t1: float, substeps: int) -> float
 # -------------------------------------------------------------------------------------- edges
 
 
-def _step_ok(model: GridModel, dst: _Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
+def _step_ok(model: GridModel, dst: Layer, d_rows: IntArray, gene_sweep: Array, src_q1: Array, src_beta: Array,
              src_d: Array, travel: float) -> tuple[BoolArray, NDArray[np.int8]]:
     """The joint-speed and sweep conditions of ``P`` candidate steps into rows ``d_rows`` of ``dst``.
 
@@ -297,7 +226,7 @@ class _Edges:
         return out
 
 
-def _expand(model: GridModel, src: _Layer, dst: _Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
+def _expand(model: GridModel, src: Layer, dst: Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
             src_states: BoolArray | None) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
     """Physical steps ``rows -> d_rows`` (unique on both sides) as state edges, one group per source
     representative: ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state
@@ -315,13 +244,13 @@ def _expand(model: GridModel, src: _Layer, dst: _Layer, rows: IntArray, d_rows: 
     return out
 
 
-def _grid_edges(model: GridModel, src: _Layer, dst: _Layer, travel: float, src_states: BoolArray | None) -> _Edges:
+def _grid_edges(model: GridModel, src: Layer, dst: Layer, travel: float, src_states: BoolArray | None) -> _Edges:
     """Allowed transitions from the states of ``src`` (those in ``src_states``, or all) to those of ``dst``: one
     group per gene offset (same branch) and per gene offset and elbow switch (sources near the stretched
     wrist), split by source representative."""
     g = model.periodic.size
     C = model.cells
-    lut = _lut(dst, C)
+    row_of = lut(dst, C)
     every = (np.arange(src.cells.size, dtype=np.int64) if src_states is None
              else np.flatnonzero(src_states.reshape(-1, model.M).any(axis=1)))
     near = every[np.abs(src.beta[every]) <= model.delta[g + 1]]
@@ -333,7 +262,7 @@ def _grid_edges(model: GridModel, src: _Layer, dst: _Layer, travel: float, src_s
         gene_index = src.gene_index[candidates]
         for k, offset in enumerate(model.offsets):
             flat, on_grid = targets(model, gene_index, offset)
-            d_rows = lut[base + flat].astype(np.int64)
+            d_rows = row_of[base + flat].astype(np.int64)
             hit = (d_rows >= 0) & on_grid
             rows, d_rows = candidates[hit], d_rows[hit]
             sweep = np.broadcast_to(model.offset_sweep[k], (rows.size, model.rho.shape[1]))
@@ -349,7 +278,7 @@ def _pack(groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]]) -> _Edges:
     return _Edges(np.concatenate([s for s, _ in groups]), np.concatenate([d for _, d in groups]), np.cumsum(sizes))
 
 
-def _start_states(model: GridModel, q0: Array, beta0: float, d0: Array, dst: _Layer, travel: float) -> IntArray:
+def _start_states(model: GridModel, q0: Array, beta0: float, d0: Array, dst: Layer, travel: float) -> IntArray:
     """States of ``dst`` reachable from ``q0`` in one step (``q0``'s genes and ``q_(n-1)`` are its own
     unwrapped values)."""
     g = model.periodic.size
@@ -377,7 +306,7 @@ def _start_states(model: GridModel, q0: Array, beta0: float, d0: Array, dst: _La
 # ------------------------------------------------------------------------------------ families
 
 
-def _components(layer: _Layer, states: BoolArray, model: GridModel, cross_beta: float) -> IntArray:
+def _components(layer: Layer, states: BoolArray, model: GridModel, cross_beta: float) -> IntArray:
     """Connected components of the layer's ``states`` ``(m M,)`` (a mask over ``row * M + m``).
 
     Two states are adjacent when their cells are grid neighbours (the 3^g - 1 of them, within a branch)
@@ -452,7 +381,7 @@ def _bits(labels: IntArray) -> NDArray[np.uint64]:
                     np.uint64(0)).astype(np.uint64)
 
 
-def _family_of(label: int, layer: _Layer, model: GridModel, members: IntArray, **extra: object) -> Family:
+def _family_of(label: int, layer: Layer, model: GridModel, members: IntArray, **extra: object) -> Family:
     """A family from its member states."""
     rows = members // model.M
     best = int(rows[int(np.argmax(layer.S[rows]))])
@@ -522,14 +451,14 @@ def reach_over_time(
     lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
     clock = {"maps": 0.0, "edges": 0.0}
 
-    def build(k: int, candidates: IntArray | None) -> _Layer:
+    def build(k: int, candidates: IntArray | None) -> Layer:
         tic = time.perf_counter()
-        layer = _layer(red, evaluator, model, axes, np.asarray(path.position(times[k]), float), float(times[k]),
-                       opts.s_min, candidates if lazy else None)
+        layer = evaluate_layer(red, evaluator, model, np.asarray(path.position(times[k]), float), float(times[k]),
+                               opts.s_min, candidates if lazy else None)
         clock["maps"] += time.perf_counter() - tic
         return layer
 
-    def connect(src: _Layer, dst: _Layer, k: int, states: BoolArray | None) -> _Edges:
+    def connect(src: Layer, dst: Layer, k: int, states: BoolArray | None) -> _Edges:
         tic = time.perf_counter()
         edges = _grid_edges(model, src, dst, travel[k], states)
         clock["edges"] += time.perf_counter() - tic
@@ -541,7 +470,7 @@ def reach_over_time(
     start_q = start0.grid_q
     travel = [_obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
               for k in range(N)]
-    layers: list[_Layer] = [build(1, _start_box(model, axes, start_q))]  # layers[k - 1] is layer k
+    layers: list[Layer] = [build(1, start_box(model, start_q))]  # layers[k - 1] is layer k
     tic = time.perf_counter()
     start = _start_states(model, start_q, beta0, ev0.link_distances[0], layers[0], travel[0])
     clock["edges"] += time.perf_counter() - tic
@@ -553,7 +482,7 @@ def reach_over_time(
         if not reached.any():
             break
         src = layers[k - 1]
-        dst = build(k + 1, _dilate(model, src, np.flatnonzero(reached.reshape(-1, M).any(axis=1))))
+        dst = build(k + 1, dilate(model, src, np.flatnonzero(reached.reshape(-1, M).any(axis=1))))
         step = connect(src, dst, k, reached)
         layers.append(dst)
         hops.append(step)
@@ -698,24 +627,6 @@ def _fold_index(model: GridModel, axes: tuple[Array, ...], map_axes: tuple[Array
     return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
 
 
-def _start_box(model: GridModel, axes: tuple[Array, ...], start_q: Array) -> IntArray:
-    """Flat physical indices (both branches) of the cells whose genes are within one step's gene bound of
-    ``start_q``."""
-    C = model.cells
-    if not axes:
-        return np.arange(2 * C, dtype=np.int64)
-    keep = []
-    for a, axis in enumerate(axes):
-        diff = axis - start_q[a]
-        diff = np.abs(wrap_angle(diff) if model.periodic[a] else diff)
-        keep.append(np.flatnonzero(diff <= model.r[a] * model.h + 1e-12))
-    if any(k.size == 0 for k in keep):
-        return np.zeros(0, dtype=np.int64)
-    mesh = np.meshgrid(*keep, indexing="ij")
-    genes = np.ravel_multi_index(tuple(m.ravel() for m in mesh), model.shape).astype(np.int64)
-    return np.concatenate([genes, genes + C])
-
-
 def _start_families(model: GridModel, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
                     start_q: Array, branch0: int, opts: ReachOptions) -> tuple[Family, ...]:
     """Components of the feasible states at ``t_0`` and their fate (see the module docstring)."""
@@ -750,7 +661,7 @@ def _start_families(model: GridModel, axes: tuple[Array, ...], N: int, times: Ar
     return tuple(out)
 
 
-def _home_state(model: GridModel, axes: tuple[Array, ...], layer: _Layer, start_q: Array, branch: int) -> int:
+def _home_state(model: GridModel, axes: tuple[Array, ...], layer: Layer, start_q: Array, branch: int) -> int:
     """The state of ``layer`` nearest to ``start_q`` on ``branch`` (its grid cell and ``q_(n-1)``'s
     representative), or -1 if that cell is not feasible."""
     g = model.periodic.size
@@ -768,7 +679,7 @@ def _home_state(model: GridModel, axes: tuple[Array, ...], layer: _Layer, start_
     return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
 
 
-def _motion(model: GridModel, layers: list[_Layer], times: Array, q0: Array, q0_S: float, branch0: int,
+def _motion(model: GridModel, layers: list[Layer], times: Array, q0: Array, q0_S: float, branch0: int,
             states: list[int]) -> ReachMotion:
     """The motion through ``states`` (one per layer 1..K; ``layers[k - 1]`` is layer ``k``) from ``q0``: bounded
     joints take their own values (genes: the axis values; ``q_(n-1)``: its representative; ``q_n``:
