@@ -91,7 +91,8 @@ from previewctl.path import HandPath
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN as TWO_PI
 from previewctl.robot.model import Robot
-from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow, targets
+from previewctl.search.reachability.components import components
+from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow
 from previewctl.search.reachability.layers import Layer, dilate, evaluate_layer, start_box
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
 from previewctl.search.reachability.result import Family, ReachMotion, ReachResult
@@ -124,74 +125,6 @@ def _map_axes(g: int, h: float) -> tuple[Array, ...]:
 
 
 # ------------------------------------------------------------------------------------ families
-
-
-def _components(layer: Layer, states: BoolArray, model: GridModel, cross_beta: float) -> IntArray:
-    """Connected components of the layer's ``states`` ``(m M,)`` (a mask over ``row * M + m``).
-
-    Two states are adjacent when their cells are grid neighbours (the 3^g - 1 of them, within a branch)
-    or the two branches of one cell with ``|β| <= cross_beta`` on both, and ``q_(n-1)`` takes the short way
-    between them (the same representative rule as a step). Returns labels ``(m M,)``: ``-1`` outside the
-    mask, else ``0 .. K - 1`` by decreasing component size.
-    """
-    C, M, g = model.cells, model.M, model.periodic.size
-    labels = np.full(states.size, -1, dtype=np.int64)
-    chosen = np.flatnonzero(states)
-    if chosen.size == 0:
-        return labels
-    rows = np.unique(chosen // M)
-    lut = np.full(2 * C, -1, dtype=np.int64)
-    lut[layer.cells[rows]] = rows
-    us: list[IntArray] = []
-    vs: list[IntArray] = []
-
-    def link(a_rows: IntArray, b_rows: IntArray) -> None:
-        shift = np.zeros(a_rows.size, dtype=np.int64)
-        if not model.q1_periodic:
-            a, b = layer.q1[a_rows], layer.q1[b_rows]
-            shift = np.rint((a + wrap_angle(b - a) - b) / TWO_PI).astype(np.int64)
-        for m in range(M):
-            m_b = m + shift
-            ok = (m_b >= 0) & (m_b < M)
-            u, v = a_rows[ok] * M + m, b_rows[ok] * M + m_b[ok]
-            keep = states[u] & states[v]
-            us.append(u[keep])
-            vs.append(v[keep])
-
-    for offset in np.ndindex(*(3,) * g):
-        step = np.array(offset, dtype=np.int64) - 1
-        nonzero = np.flatnonzero(step)
-        if nonzero.size == 0 or step[nonzero[0]] < 0:  # one of each opposite pair
-            continue
-        flat, on_grid = targets(model, layer.gene_index[rows], step)
-        other = lut[layer.branch[rows].astype(np.int64) * C + flat]
-        hit = on_grid & (other >= 0)
-        link(rows[hit], other[hit])
-    straight = rows[(layer.branch[rows] == 0) & (np.abs(layer.beta[rows]) <= cross_beta)]
-    partner = lut[layer.cells[straight] + C]
-    hit = partner >= 0
-    hit[hit] &= np.abs(layer.beta[partner[hit]]) <= cross_beta
-    link(straight[hit], partner[hit])
-    u, v = np.concatenate(us), np.concatenate(vs)
-    parent = np.arange(states.size, dtype=np.int64)
-    while True:  # hook roots onto the smaller root, then jump pointers to the roots
-        ru, rv = parent[u], parent[v]
-        differ = ru != rv
-        if not differ.any():
-            break
-        lo, hi = np.minimum(ru[differ], rv[differ]), np.maximum(ru[differ], rv[differ])
-        np.minimum.at(parent, hi, lo)
-        while True:
-            jumped = parent[parent]
-            if np.array_equal(jumped, parent):
-                break
-            parent = jumped
-    _, inverse, counts = np.unique(parent[chosen], return_inverse=True, return_counts=True)
-    order = np.argsort(-counts, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    labels[chosen] = rank[inverse]
-    return labels
 
 
 def _bits(labels: IntArray) -> NDArray[np.uint64]:
@@ -335,7 +268,7 @@ def reach_over_time(
     commit_time: float | None = None
     best_family: int | None = None
     if K >= 1:
-        labels = _components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
+        labels = components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
         best_family = int(labels[states_path[-1]]) + 1
         A: list[NDArray[np.uint64]] = [np.zeros(0, dtype=np.uint64)] * (K + 1)
         A[K] = _bits(labels)
@@ -454,7 +387,7 @@ def _start_families(model: GridModel, axes: tuple[Array, ...], N: int, times: Ar
     if first.cells.size == 0:
         return ()
     every = first.valid.reshape(-1)
-    labels = _components(first, every, model, math.radians(opts.cross_adjacency_deg))
+    labels = components(first, every, model, math.radians(opts.cross_adjacency_deg))
     F = _bits(labels)
     alive = np.zeros(N + 1, dtype=np.uint64)
     shared = np.zeros(N + 1, dtype=np.uint64)
