@@ -92,12 +92,13 @@ from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN as TWO_PI
 from previewctl.robot.model import Robot
 from previewctl.search.reachability.components import components
+from previewctl.search.reachability.dp import best_states, forward
 from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow
-from previewctl.search.reachability.layers import Layer, dilate, evaluate_layer, start_box
+from previewctl.search.reachability.layers import Layer
+from previewctl.search.reachability.motion import motion_through
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
+from previewctl.search.reachability.problem import make_problem
 from previewctl.search.reachability.result import Family, ReachMotion, ReachResult
-from previewctl.search.reachability.transitions import Edges, grid_edges, obstacle_travel, start_states
-from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array, BoolArray, IntArray
 
 __all__ = [
@@ -202,64 +203,20 @@ def reach_over_time(
     M = model.M
     times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
     lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
-    clock = {"maps": 0.0, "edges": 0.0}
-
-    def build(k: int, candidates: IntArray | None) -> Layer:
-        tic = time.perf_counter()
-        layer = evaluate_layer(red, evaluator, model, np.asarray(path.position(times[k]), float), float(times[k]),
-                               opts.s_min, candidates if lazy else None)
-        clock["maps"] += time.perf_counter() - tic
-        return layer
-
-    def connect(src: Layer, dst: Layer, k: int, states: BoolArray | None) -> Edges:
-        tic = time.perf_counter()
-        edges = grid_edges(model, src, dst, travel[k], states)
-        clock["edges"] += time.perf_counter() - tic
-        return edges
-
-    # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
     ev0 = evaluator(q0[None, :], float(times[0]))
     q0_S = float(ev0.S[0])
     start_q = start0.grid_q
-    travel = [obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
-              for k in range(N)]
-    layers: list[Layer] = [build(1, start_box(model, start_q))]  # layers[k - 1] is layer k
-    tic = time.perf_counter()
-    start = start_states(model, start0, ev0.link_distances[0], layers[0], travel[0])
-    clock["edges"] += time.perf_counter() - tic
-    W: list[Array] = [np.array([np.inf]), np.full(layers[0].states, -np.inf)]  # W[k]: layer k's states
-    W[1][start] = np.repeat(layers[0].S, M)[start]
-    hops: list[Edges] = []  # hops[k - 1]: layer k -> k + 1
-    for k in range(1, N):
-        reached = W[k] > -np.inf
-        if not reached.any():
-            break
-        src = layers[k - 1]
-        dst = build(k + 1, dilate(model, src, np.flatnonzero(reached.reshape(-1, M).any(axis=1))))
-        step = connect(src, dst, k, reached)
-        layers.append(dst)
-        hops.append(step)
-        W.append(np.minimum(step.push_max(W[k], dst.states), np.repeat(dst.S, M)))
-    K = max(k for k in range(len(W)) if np.any(W[k] > -np.inf))
+    problem = make_problem(red, evaluator, path, model, times, opts)
+    clock = problem.clock
+
+    # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
+    fwd = forward(problem, start0, ev0.link_distances[0])
+    K, W, layers, hops, start = fwd.K, fwd.W, fwd.layers, fwd.hops, fwd.start
     exists = K == N
-    layers, hops = layers[:K], hops[: max(K - 1, 0)]
 
     # ---- (c) best motion: max min S, then max total S
-    if K >= 1:
-        s_star = float(np.max(W[K]))
-        Z: list[Array] = [np.zeros(0)] * (K + 1)
-        Z[K] = np.where(W[K] >= s_star, np.repeat(layers[K - 1].S, M), -np.inf)
-        for k in range(K - 1, 0, -1):
-            best = hops[k - 1].pull_max(Z[k + 1], layers[k - 1].states)
-            Z[k] = np.where(W[k] >= s_star, np.repeat(layers[k - 1].S, M) + best, -np.inf)
-        states_path = [int(start[int(np.argmax(Z[1][start]))])]
-        for k in range(1, K):
-            out = hops[k - 1].dst[hops[k - 1].src == states_path[-1]]
-            states_path.append(int(out[int(np.argmax(Z[k + 1][out]))]))
-    else:
-        s_star = float("nan")
-        states_path = []
-    motion = _motion(model, layers, times, q0, q0_S, int(branch0[0]), states_path)
+    s_star, states_path = best_states(fwd, M)
+    motion = motion_through(model, layers, times, start0, q0_S, states_path)
 
     # ---- (b) end families (at t_K: the end, or the dead end), viable tube, commit time
     reachable = [W[k] > -np.inf for k in range(1, K + 1)]  # [k - 1]
@@ -298,8 +255,8 @@ def reach_over_time(
                                   float(times[k])) for k in map_layers]) if map_layers else np.zeros(0, np.float32)
     start_families: tuple[Family, ...] = ()
     if opts.start_families:
-        start_families = _start_families(model, axes, N, times, lambda k: build(k, None),
-                                         lambda s, d, k: connect(s, d, k, None), start_q, int(branch0[0]), opts)
+        start_families = _start_families(model, axes, N, times, lambda k: problem.layer(k, None),
+                                         lambda s, d, k: problem.edges(s, d, k, None), start_q, int(branch0[0]), opts)
     t_extras = time.perf_counter()
 
     fold = _fold_index(model, axes, map_axes)
@@ -430,36 +387,3 @@ def _home_state(model: GridModel, axes: tuple[Array, ...], layer: Layer, start_q
         return -1
     m = 0 if model.q1_periodic else int(np.rint((start_q[g] - layer.q1[row[0]]) / TWO_PI)) - int(model.reps[0])
     return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
-
-
-def _motion(model: GridModel, layers: list[Layer], times: Array, q0: Array, q0_S: float, branch0: int,
-            states: list[int]) -> ReachMotion:
-    """The motion through ``states`` (one per layer 1..K; ``layers[k - 1]`` is layer ``k``) from ``q0``: bounded
-    joints take their own values (genes: the axis values; ``q_(n-1)``: its representative; ``q_n``:
-    ``β + c``), periodic ones are unwrapped along the motion."""
-    g, M = model.periodic.size, model.M
-    K = len(states)
-    q = np.empty((K + 1, q0.size))
-    q[0] = q0
-    S = np.empty(K + 1)
-    S[0] = q0_S
-    branch = np.empty(K + 1, dtype=np.int64)
-    branch[0] = branch0
-    cells = np.full(K + 1, -1, dtype=np.int64)
-    for k, state in enumerate(states, start=1):
-        layer = layers[k - 1]
-        row, m = divmod(state, M)
-        genes = layer.genes[row]
-        for a in range(g):
-            q[k, a] = q[k - 1, a] + float(wrap_angle(genes[a] - q[k - 1, a])) if model.periodic[a] else genes[a]
-        if model.q1_periodic:
-            q[k, g] = q[k - 1, g] + float(wrap_angle(layer.q1[row] - q[k - 1, g]))
-        else:
-            q[k, g] = layer.q1[row] + TWO_PI * model.reps[m]
-        q[k, g + 1] = layer.beta[row] + model.elbow_offset
-        S[k] = layer.S[row]
-        branch[k] = layer.branch[row]
-        cells[k] = layer.cells[row]
-    return ReachMotion(times=times[: K + 1].copy(), q=q, S=S, branch=branch, cells=cells,
-                       min_S=float(S[1:].min()) if K else float("nan"),
-                       total_S=float(S[1:].sum()) if K else 0.0)
