@@ -80,7 +80,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -91,10 +90,9 @@ from previewctl.path import HandPath
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN as TWO_PI
 from previewctl.robot.model import Robot
-from previewctl.search.reachability.components import components
 from previewctl.search.reachability.dp import best_states, forward
+from previewctl.search.reachability.families import MAX_FAMILY_BITS, end_families, start_families
 from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow
-from previewctl.search.reachability.layers import Layer
 from previewctl.search.reachability.motion import motion_through
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
 from previewctl.search.reachability.problem import make_problem
@@ -112,8 +110,6 @@ __all__ = [
     "signed_elbow",
 ]
 
-MAX_FAMILY_BITS = 63
-"""Families tracked with their own bit; smaller components beyond that share the last bit."""
 
 
 # ------------------------------------------------------------------------------------- model
@@ -126,21 +122,6 @@ def _map_axes(g: int, h: float) -> tuple[Array, ...]:
 
 
 # ------------------------------------------------------------------------------------ families
-
-
-def _bits(labels: IntArray) -> NDArray[np.uint64]:
-    """One bit per label (labels beyond :data:`MAX_FAMILY_BITS` - 1 share the last bit); 0 for -1."""
-    capped = np.minimum(labels, MAX_FAMILY_BITS - 1)
-    return np.where(labels >= 0, np.left_shift(np.uint64(1), np.maximum(capped, 0).astype(np.uint64)),
-                    np.uint64(0)).astype(np.uint64)
-
-
-def _family_of(label: int, layer: Layer, model: GridModel, members: IntArray, **extra: object) -> Family:
-    """A family from its member states."""
-    rows = members // model.M
-    best = int(rows[int(np.argmax(layer.S[rows]))])
-    return Family(label=label, cells=int(members.size), peak_genes=layer.genes[best].copy(),
-                  peak_branch=int(layer.branch[best]), peak_S=float(layer.S[best]), **extra)  # type: ignore[arg-type]
 
 
 # --------------------------------------------------------------------------------------- main
@@ -199,19 +180,17 @@ def reach_over_time(
     h = math.radians(opts.resolution_deg)
     model, start0 = grid_model(robot, red, opts, dt, q0)
     axes, delta, r = model.axes, model.delta, model.r
-    branch0 = np.array([start0.branch])
     M = model.M
     times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
     lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
     ev0 = evaluator(q0[None, :], float(times[0]))
     q0_S = float(ev0.S[0])
-    start_q = start0.grid_q
     problem = make_problem(red, evaluator, path, model, times, opts)
     clock = problem.clock
 
     # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
     fwd = forward(problem, start0, ev0.link_distances[0])
-    K, W, layers, hops, start = fwd.K, fwd.W, fwd.layers, fwd.hops, fwd.start
+    K, layers, hops, start = fwd.K, fwd.layers, fwd.hops, fwd.start
     exists = K == N
 
     # ---- (c) best motion: max min S, then max total S
@@ -219,33 +198,10 @@ def reach_over_time(
     motion = motion_through(model, layers, times, start0, q0_S, states_path)
 
     # ---- (b) end families (at t_K: the end, or the dead end), viable tube, commit time
-    reachable = [W[k] > -np.inf for k in range(1, K + 1)]  # [k - 1]
-    viable = [np.zeros(layer.states, dtype=bool) for layer in layers]
-    end_families: list[Family] = []
-    commit_time: float | None = None
-    best_family: int | None = None
-    if K >= 1:
-        labels = components(layers[K - 1], reachable[K - 1], model, math.radians(opts.cross_adjacency_deg))
-        best_family = int(labels[states_path[-1]]) + 1
-        A: list[NDArray[np.uint64]] = [np.zeros(0, dtype=np.uint64)] * (K + 1)
-        A[K] = _bits(labels)
-        for k in range(K - 1, 0, -1):
-            A[k] = np.where(reachable[k - 1], hops[k - 1].pull_or(A[k + 1], layers[k - 1].states), np.uint64(0))
-        q0_bits = np.bitwise_or.reduce(A[1][start])
-        counts = [np.bitwise_count(a) for a in A]
-        many = [int(np.bitwise_count(q0_bits)) >= 2] + [bool(np.any(counts[k] >= 2)) for k in range(1, K + 1)]
-        commit_time = float(times[max(k for k in range(K + 1) if many[k])]) if any(many) else None
-        for k in range(1, K + 1):
-            viable[k - 1] = A[k] != 0
-        for label in range(int(labels.max()) + 1):
-            members = np.flatnonzero(labels == label)
-            bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
-            when = [k for k in range(1, K + 1) if np.any(((A[k] & bit) != 0) & (counts[k] >= 2))]
-            if not when and many[0]:
-                when = [0]
-            end_families.append(_family_of(label + 1, layers[K - 1], model, members,
-                                           shared_until=float(times[max(when)]) if when else None,
-                                           best_min_S=float(np.max(W[K][members]))))
+    reachable = fwd.reachable()
+    ends = end_families(fwd, model, times, states_path[-1] if states_path else -1,
+                        math.radians(opts.cross_adjacency_deg))
+    viable, commit_time, best_family = ends.viable, ends.commit_time, ends.best_family
     t_dp = time.perf_counter()
 
     # ---- the figures' S maps (over [0, 360) per gene) and the start families (both need whole grids)
@@ -253,10 +209,9 @@ def reach_over_time(
     map_layers = tuple(range(N + 1)) if not lazy else _spread(N, opts.map_times)
     S_maps = np.stack([_whole_map(red, evaluator, map_axes, np.asarray(path.position(times[k]), float),
                                   float(times[k])) for k in map_layers]) if map_layers else np.zeros(0, np.float32)
-    start_families: tuple[Family, ...] = ()
+    start_fams: tuple[Family, ...] = ()
     if opts.start_families:
-        start_families = _start_families(model, axes, N, times, lambda k: problem.layer(k, None),
-                                         lambda s, d, k: problem.edges(s, d, k, None), start_q, int(branch0[0]), opts)
+        start_fams = start_families(problem, start0, math.radians(opts.cross_adjacency_deg))
     t_extras = time.perf_counter()
 
     fold = _fold_index(model, axes, map_axes)
@@ -285,10 +240,10 @@ def reach_over_time(
         best_min_S=s_star,
         motion=motion,
         q0_S=q0_S,
-        end_families=tuple(end_families),
+        end_families=ends.families,
         commit_time=commit_time,
         best_family=best_family,
-        start_families=start_families,
+        start_families=start_fams,
         dt=dt,
         joint_step=delta,
         gene_cells=r,
@@ -335,55 +290,3 @@ def _fold_index(model: GridModel, axes: tuple[Array, ...], map_axes: tuple[Array
         per_axis.append(np.rint(np.mod(axis, TWO_PI) / step).astype(np.int64) % len(target))
     mesh = np.meshgrid(*per_axis, indexing="ij")
     return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
-
-
-def _start_families(model: GridModel, axes: tuple[Array, ...], N: int, times: Array, full: Any, connect: Any,
-                    start_q: Array, branch0: int, opts: ReachOptions) -> tuple[Family, ...]:
-    """Components of the feasible states at ``t_0`` and their fate (see the module docstring)."""
-    first = full(0)
-    if first.cells.size == 0:
-        return ()
-    every = first.valid.reshape(-1)
-    labels = components(first, every, model, math.radians(opts.cross_adjacency_deg))
-    F = _bits(labels)
-    alive = np.zeros(N + 1, dtype=np.uint64)
-    shared = np.zeros(N + 1, dtype=np.uint64)
-    alive[0] = np.bitwise_or.reduce(F)
-    src = first
-    for k in range(N):
-        dst = full(k + 1)
-        F = connect(src, dst, k).push_or(F, dst.states)
-        alive[k + 1] = np.bitwise_or.reduce(F) if F.size else np.uint64(0)
-        multi = F[np.bitwise_count(F) >= 2]
-        shared[k + 1] = np.bitwise_or.reduce(multi) if multi.size else np.uint64(0)
-        src = dst
-    home = _home_state(model, axes, first, start_q, branch0)
-    home_label = int(labels[home]) if home >= 0 else -1
-    out = []
-    for label in range(int(labels.max()) + 1):
-        members = np.flatnonzero(labels == label)
-        bit = np.uint64(1) << np.uint64(min(label, MAX_FAMILY_BITS - 1))
-        alive_k = [k for k in range(N + 1) if alive[k] & bit]
-        shared_k = [k for k in range(1, N + 1) if shared[k] & bit]
-        out.append(_family_of(label + 1, first, model, members, alive_until=float(times[max(alive_k)]),
-                              finishes=max(alive_k) == N, holds_q0=label == home_label,
-                              shared_until=float(times[max(shared_k)]) if shared_k else None))
-    return tuple(out)
-
-
-def _home_state(model: GridModel, axes: tuple[Array, ...], layer: Layer, start_q: Array, branch: int) -> int:
-    """The state of ``layer`` nearest to ``start_q`` on ``branch`` (its grid cell and ``q_(n-1)``'s
-    representative), or -1 if that cell is not feasible."""
-    g = model.periodic.size
-    flat = 0
-    for a in range(g):
-        if model.periodic[a]:
-            index = round(float(np.mod(start_q[a], TWO_PI)) / model.h) % model.shape[a]
-        else:
-            index = int(np.clip(round((start_q[a] - axes[a][0]) / model.h), 0, model.shape[a] - 1))
-        flat += index * int(model.strides[a])
-    row = np.flatnonzero(layer.cells == branch * model.cells + flat)
-    if row.size == 0:
-        return -1
-    m = 0 if model.q1_periodic else int(np.rint((start_q[g] - layer.q1[row[0]]) / TWO_PI)) - int(model.reps[0])
-    return int(row[0]) * model.M + m if 0 <= m < model.M and layer.valid[row[0], m] else -1
