@@ -1,7 +1,7 @@
 """Reachability over time: dynamic programming over the planar redundancy grid x time (the global reference).
 
 The paper's section 5.1 asks "whether the current configuration is reachable to the future optimal
-configuration" and answers by looking at the AMSIP maps at ten times (Fig. 8, Table 1). This module
+configuration" and answers by looking at the AMSIP maps at ten times (Fig. 8, Table 1). This package
 answers it exactly on a grid, for planar arms, offline and non-causally (it reads the whole future):
 
 * **Space.** The redundancy grid of :class:`~previewctl.planar.redundancy.PlanarRedundancy`: the
@@ -74,30 +74,34 @@ reachable at layer ``k`` (a lazy forward sweep: the DP from ``q0`` never needs t
   reachable set is non-empty; the paper's peak 4 dies at 15 s), whether it reaches ``t_N``, and the
   last time its reachable set shares a cell with another family's (after that, the family's tube is
   separate from the others).
+
+The package, one concept a module; each imports only modules above it in this list:
+
+* :mod:`~previewctl.search.reachability.options`: :class:`ReachOptions` and :class:`PlanarOnlyError`.
+* :mod:`~previewctl.search.reachability.result`: :class:`ReachResult`, :class:`ReachMotion`, :class:`Family`
+  and the JSON summary.
+* :mod:`~previewctl.search.reachability.grid`: the grid model (gene axes, representatives of
+  ``q_(n-1)``, flat cell index, per-step bounds, sweep radii) and ``q0`` on it.
+* :mod:`~previewctl.search.reachability.layers`: evaluating a layer (its feasible cells) and which
+  cells to evaluate.
+* :mod:`~previewctl.search.reachability.transitions`: the allowed steps between two layers, stored as
+  edges.
+* :mod:`~previewctl.search.reachability.problem`: one run's context; builds layers and edges and times
+  them.
+* :mod:`~previewctl.search.reachability.dp`: (a) the forward max-min and (c) the best motion's states.
+* :mod:`~previewctl.search.reachability.motion`: those states as joint values (:class:`ReachMotion`).
+* :mod:`~previewctl.search.reachability.components`: connected components of a layer's states.
+* :mod:`~previewctl.search.reachability.families`: (b) end families, viable tube, commit time; start
+  families.
+* :mod:`~previewctl.search.reachability.maps`: the figures' S maps and states folded onto them.
+* :mod:`~previewctl.search.reachability.over_time`: :func:`reach_over_time`, which runs them in order.
 """
 
-from __future__ import annotations
-
-import math
-import time
-
-import numpy as np
-from numpy.typing import NDArray
-
-from previewctl.errors import ConfigurationError
-from previewctl.index.evaluator import Evaluator
-from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
-from previewctl.robot.joints import FULL_TURN as TWO_PI
-from previewctl.robot.model import Robot
-from previewctl.search.reachability.dp import best_states, forward
-from previewctl.search.reachability.families import MAX_FAMILY_BITS, end_families, start_families
-from previewctl.search.reachability.grid import GridModel, grid_model, signed_elbow
-from previewctl.search.reachability.motion import motion_through
+from previewctl.search.reachability.families import MAX_FAMILY_BITS
+from previewctl.search.reachability.grid import signed_elbow
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
-from previewctl.search.reachability.problem import make_problem
+from previewctl.search.reachability.over_time import reach_over_time
 from previewctl.search.reachability.result import Family, ReachMotion, ReachResult
-from previewctl.types import Array, BoolArray, IntArray
 
 __all__ = [
     "MAX_FAMILY_BITS",
@@ -109,184 +113,3 @@ __all__ = [
     "reach_over_time",
     "signed_elbow",
 ]
-
-
-
-# ------------------------------------------------------------------------------------- model
-
-
-def _map_axes(g: int, h: float) -> tuple[Array, ...]:
-    """The figures' axes: ``[0, 2π)`` per gene, like the paper's maps."""
-    count = max(1, round(TWO_PI / h))
-    return tuple(np.arange(count, dtype=np.float64) * (TWO_PI / count) for _ in range(g))
-
-
-# ------------------------------------------------------------------------------------ families
-
-
-# --------------------------------------------------------------------------------------- main
-
-
-def reach_over_time(
-    robot: Robot,
-    evaluator: Evaluator,
-    path: HandPath,
-    q0: Array,
-    duration: float,
-    options: ReachOptions | None = None,
-    *,
-    t_start: float = 0.0,
-) -> ReachResult:
-    """Reachability over the redundancy grid x time from ``q0`` (see the module docstring).
-
-    Args:
-        robot: a planar arm with at most 2 genes (2 to 4 joints).
-        evaluator: AMSIP evaluator (robot, scene, index, potential) -- the scene and hand target at
-            each layer time are read from it and from ``path``.
-        path: the desired hand path.
-        q0: start configuration ``(n,)`` [rad] at ``t_start`` (within the joint limits).
-        duration: horizon [s]; layers at ``t_start + k duration / N``.
-        options: grid and transition model.
-        t_start: start time [s].
-
-    Returns:
-        The verdict, the best motion, the families and commit time, and the maps.
-
-    Raises:
-        PlanarOnlyError: a spatial arm, or a planar arm with more than 2 genes.
-        ConfigurationError: a bad option, duration or ``q0``; a time step too short for the grid.
-    """
-    started, cpu_started = time.perf_counter(), time.process_time()
-    opts = options or ReachOptions()
-    if robot.planar is None:
-        raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
-    red = PlanarRedundancy(robot)
-    g, n = red.g, red.n
-    if g > 2:
-        raise PlanarOnlyError(f"reach-map: planar arms of 2 to 4 joints only (robot {robot.name!r} has {n} joints, "
-                              f"{g} genes: the grid would have {g} dimensions)")
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise ConfigurationError(f"duration must be a positive number of seconds, got {duration!r}")
-    Q0, _ = robot.check_configurations(q0)
-    q0 = Q0[0]
-    lower, upper = robot.lower_limits, robot.upper_limits
-    outside = np.flatnonzero((q0 < lower - 1e-9) | (q0 > upper + 1e-9))
-    if outside.size:
-        j = int(outside[0])
-        raise ConfigurationError(f"q0: joint {j + 1} = {q0[j]:.6g} rad is outside its limits "
-                                 f"[{lower[j]:.6g}, {upper[j]:.6g}] rad")
-    N = opts.steps
-    dt = duration / N
-    h = math.radians(opts.resolution_deg)
-    model, start0 = grid_model(robot, red, opts, dt, q0)
-    axes, delta, r = model.axes, model.delta, model.r
-    M = model.M
-    times: Array = t_start + np.arange(N + 1, dtype=np.float64) * dt
-    lazy = g == 2  # one or two-link arms: the whole grid is cheap, evaluate it all
-    ev0 = evaluator(q0[None, :], float(times[0]))
-    q0_S = float(ev0.S[0])
-    problem = make_problem(red, evaluator, path, model, times, opts)
-    clock = problem.clock
-
-    # ---- (a) forward max-min from q0; a layer is evaluated only where the previous one can step to
-    fwd = forward(problem, start0, ev0.link_distances[0])
-    K, layers, hops, start = fwd.K, fwd.layers, fwd.hops, fwd.start
-    exists = K == N
-
-    # ---- (c) best motion: max min S, then max total S
-    s_star, states_path = best_states(fwd, M)
-    motion = motion_through(model, layers, times, start0, q0_S, states_path)
-
-    # ---- (b) end families (at t_K: the end, or the dead end), viable tube, commit time
-    reachable = fwd.reachable()
-    ends = end_families(fwd, model, times, states_path[-1] if states_path else -1,
-                        math.radians(opts.cross_adjacency_deg))
-    viable, commit_time, best_family = ends.viable, ends.commit_time, ends.best_family
-    t_dp = time.perf_counter()
-
-    # ---- the figures' S maps (over [0, 360) per gene) and the start families (both need whole grids)
-    map_axes = _map_axes(g, h)
-    map_layers = tuple(range(N + 1)) if not lazy else _spread(N, opts.map_times)
-    S_maps = np.stack([_whole_map(red, evaluator, map_axes, np.asarray(path.position(times[k]), float),
-                                  float(times[k])) for k in map_layers]) if map_layers else np.zeros(0, np.float32)
-    start_fams: tuple[Family, ...] = ()
-    if opts.start_families:
-        start_fams = start_families(problem, start0, math.radians(opts.cross_adjacency_deg))
-    t_extras = time.perf_counter()
-
-    fold = _fold_index(model, axes, map_axes)
-    folded_shape = (2, *(len(a) for a in map_axes))
-
-    def folded(masks: list[BoolArray]) -> BoolArray:
-        out = np.zeros((N + 1, int(np.prod(folded_shape))), dtype=bool)
-        C_f = int(np.prod(folded_shape[1:]))
-        for k, (layer, mask) in enumerate(zip(layers, masks, strict=True), start=1):
-            rows = np.flatnonzero(mask.reshape(-1, M).any(axis=1))
-            cells = layer.cells[rows]
-            out[k, (cells // model.cells) * C_f + fold[cells % model.cells]] = True
-        return out.reshape((N + 1, *folded_shape))
-
-    return ReachResult(
-        times=times,
-        axes=axes,
-        map_axes=map_axes,
-        shape=folded_shape,
-        map_layers=map_layers,
-        S_maps=S_maps.reshape((len(map_layers), *folded_shape)).astype(np.float32),
-        reachable=folded(reachable),
-        viable=folded(viable),
-        exists=exists,
-        dead_end=None if exists else float(times[K]),
-        best_min_S=s_star,
-        motion=motion,
-        q0_S=q0_S,
-        end_families=ends.families,
-        commit_time=commit_time,
-        best_family=best_family,
-        start_families=start_fams,
-        dt=dt,
-        joint_step=delta,
-        gene_cells=r,
-        edges=np.array([start.size, *(e.size for e in hops)], dtype=np.int64),
-        timings={
-            "maps": clock["maps"],
-            "edges": clock["edges"],
-            "dp": t_dp - started - clock["maps"] - clock["edges"],
-            "extras": t_extras - t_dp,
-            "total": time.perf_counter() - started,
-            "cpu": time.process_time() - cpu_started,
-        },
-        options=opts,
-    )
-
-
-def _spread(N: int, count: int) -> tuple[int, ...]:
-    """``count`` layer indices spread evenly over ``0 .. N`` (the paper's Fig. 8 shows ten times)."""
-    if count <= 0:
-        return ()
-    return tuple(sorted({round(float(k)) for k in np.linspace(0, N, min(count, N + 1))}))
-
-
-def _whole_map(red: PlanarRedundancy, evaluator: Evaluator, axes: tuple[Array, ...], target: Array,
-               t: float) -> NDArray[np.float32]:
-    """S ``(2 C_f,)`` on the figures' grid at time ``t`` [s] (``collision_value`` where unreachable)."""
-    if axes:
-        Q, reach = red.solve_grid(axes, target)
-    else:
-        Q, reach = red.solve(np.zeros((2, 0)), np.array([0, 1]), target)
-    S = np.full(Q.shape[0], evaluator.potential.collision_value)
-    if reach.any():
-        S[reach] = evaluator(Q[reach], t).S
-    return S.astype(np.float32)
-
-
-def _fold_index(model: GridModel, axes: tuple[Array, ...], map_axes: tuple[Array, ...]) -> IntArray:
-    """For each flat gene index of the DP grid, the flat index of the figures' cell holding its angle."""
-    if not axes:
-        return np.zeros(1, dtype=np.int64)
-    per_axis = []
-    for axis, target in zip(axes, map_axes, strict=True):
-        step = TWO_PI / len(target)
-        per_axis.append(np.rint(np.mod(axis, TWO_PI) / step).astype(np.int64) % len(target))
-    mesh = np.meshgrid(*per_axis, indexing="ij")
-    return np.ravel_multi_index(tuple(m.ravel() for m in mesh), tuple(len(a) for a in map_axes)).astype(np.int64)
