@@ -1,4 +1,4 @@
-"""Reachability over time (search/reachability.py): the DP against brute force on tiny grids, its best
+"""Reachability over time (search/reachability): the DP against brute force on tiny grids, its best
 motion under the exact check, the typed error for spatial arms, and the ``reach-map`` command."""
 
 from __future__ import annotations
