@@ -24,14 +24,6 @@ from previewctl.types import Array
 
 
 @runtime_checkable
-class CandidateLike(Protocol):
-    """What a search returns: a configuration ``q`` ``(nq,)`` and its AMSIP ``S``."""
-
-    q: Array
-    S: float
-
-
-@runtime_checkable
 class SearchLike(Protocol):
     """The interface of :class:`previewctl.search.ga.OneStepGA` that the preview controller uses."""
 
