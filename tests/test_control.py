@@ -345,6 +345,18 @@ def test_coherent_preview_ramps_the_pull_in_from_zero(planar4: Robot) -> None:
         np.testing.assert_allclose(info.v, ramp * full, atol=1e-12)
 
 
+def test_coherent_preview_pulls_nowhere_when_no_imaginary_arm_is_feasible(planar4: Robot) -> None:
+    """Coherent mode: a search with nothing at S > 0 contributes no pull (the literal mode would pull)."""
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    q = np.array(PLANAR_Q0)
+    target = q + np.array([0.1, -0.2, 0.05, 0.0])
+    for coherent, pulled in ((True, False), (False, True)):
+        params = ControllerParams(gain=(2.0,), preview_time=0.5, settle_frames=1, coherent=coherent)
+        controller = PreviewController(planar4, params, "single", [FakeGA(target, -1.0)])
+        _, info = controller.command(1.0, q, state_for(planar4, q, path))
+        assert bool(np.any(info.v != 0.0)) == pulled
+
+
 def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar4: Robot) -> None:
     doc = planar_doc(path={"waypoints": [PLANAR_START, [1.9069, 1.0317]], "duration": 0.5},
                      controller={"name": "single", "gain": 2.0}, timing={"duration": 4.0})

@@ -68,8 +68,10 @@ class PreviewController:
 
     One search (an imaginary arm) per preview time ``t_i* = t + i t̃``, ``i = 1..p``. When a camera
     frame is due (and at the first call), each search runs one generation against the hand target
-    ``r_d(t_i*)`` and the scene at ``t_i*``; its best candidate is the target ``q̃_i``. Between frames
-    the last targets are kept. Then ``v = K_v Σ k_i (q̃_i ⊖ q)`` drives eq. 19.
+    ``r_d(t_i*)`` and the scene at ``t_i*``. The target ``q̃_i`` is its tracked peak, ramped in
+    (coherent mode, the default: :mod:`previewctl.control.peaks`), or its best candidate
+    (``coherent=False``, the paper's literal rule). Between frames the last targets are kept. Then
+    ``v = K_v Σ k_i r_i (q̃_i ⊖ q)`` drives eq. 19 (``r_i`` the ramp, 1 in the literal mode).
 
     Args:
         robot: the arm.
@@ -158,8 +160,10 @@ class PreviewController:
         if peak is not None:
             targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
             search.seed(peak.q)  # keep the tracked peak in the population
-        elif self._targets is not None:  # nothing feasible this frame: keep the last target, pull off
-            targets[i], values[i], self._ramp[i] = self._targets[i], self._target_amsip[i], 0.0  # type: ignore[index]
+        else:  # nothing feasible this frame: no pull from this arm (its last target is kept for the log)
+            self._ramp[i] = 0.0
+            if self._targets is not None and self._target_amsip is not None:
+                targets[i], values[i] = self._targets[i], self._target_amsip[i]
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
