@@ -89,7 +89,7 @@ class Controller:
 
     @property
     def name(self) -> str:
-        """The mode: ``none``, ``gradient``, ``single``, ``multi`` or ``reach``."""
+        """The mode: ``none``, ``gradient``, ``single``, ``multi``, ``reach`` or ``oracle``."""
         return self.law.name
 
     @property
