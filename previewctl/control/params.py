@@ -35,7 +35,11 @@ PreviewMode = Literal["single", "multi", "reach"]
 ControllerName = Literal["none", "gradient", PreviewMode, "oracle"]
 """Every controller: ``none`` (eq. 19 alone), ``gradient``, the preview modes, and ``oracle``, which is
 non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
+ExecutionMode = Literal["qp", "pseudoinverse"]
+"""How a controller's eq. 19 command is executed: ``qp`` (a constrained QP with joint limits and collision velocity
+dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
+EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""
@@ -97,6 +101,7 @@ class ControllerParams(Checked):
         hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
+        execution: how the command is executed, one of :data:`EXECUTION_MODES`.
     """
 
     gain: Gains = (1.0,)
@@ -118,6 +123,7 @@ class ControllerParams(Checked):
     hysteresis: NonNegative = 0.2
     settle_frames: Count = 15
     track_radius: Positive = 0.5
+    execution: ExecutionMode = "pseudoinverse"
 
     def check(self) -> None:
         """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
