@@ -139,7 +139,8 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
 
 
 def test_velocity_limits_by_uniform_scaling_in_a_run() -> None:
-    doc = planar_doc(controller={"name": "none", "velocity_scale": 0.05, "feedback_gain": 20.0},
+    doc = planar_doc(controller={"name": "none", "velocity_scale": 0.05, "feedback_gain": 20.0,
+                                 "execution": "pseudoinverse"},
                      path={"waypoints": [PLANAR_START, [1.0, 0.3]], "duration": 1.0}, timing={"duration": 2.0})
     scenario = scenario_from_dict(doc)
     run = quick(scenario, "none")
@@ -236,9 +237,10 @@ def test_controller_params_reject_bad_values(kwargs: dict[str, Any], message: st
 
 
 def test_controller_names_come_from_one_list() -> None:
-    assert get_args(ControllerName) == CONTROLLER_NAMES == ("none", "gradient", "single", "multi", "reach", "oracle")
+    names = ("none", "qp", "gradient", "single", "multi", "reach", "oracle")
+    assert get_args(ControllerName) == CONTROLLER_NAMES == names
     assert PREVIEW_MODES == ("single", "multi", "reach")
-    with pytest.raises(ParameterError, match=r"controller = 'fancy' is not valid; valid: none, gradient, single"):
+    with pytest.raises(ParameterError, match=r"controller = 'fancy' is not valid; valid: none, qp, gradient, single"):
         ControllerSpec("fancy")
     with pytest.raises(ParameterError, match=r"\(did you mean 'multi'\?\)"):
         ControllerSpec("mult")

@@ -194,7 +194,7 @@ def test_bad_times_are_parameter_errors(planar4: Robot, t: Any, dt: Any, message
 
 def test_make_controller_rejects_bad_arguments_with_the_choices(planar4: Robot) -> None:
     path = pc.HandPath([START, END], 5.0)
-    with pytest.raises(pc.UnknownNameError, match="unknown controller 'mutli'; valid: none, gradient, single, multi"):
+    with pytest.raises(pc.UnknownNameError, match="unknown controller 'mutli'; valid: none, qp, gradient"):
         pc.make_controller("mutli", robot=planar4, path=path)
     with pytest.raises(pc.UnknownNameError, match="unknown controller 'fancy'"):
         pc.make_controller(planar_scenario(), name="fancy")

@@ -29,8 +29,8 @@ BOX = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0
 
 @pytest.fixture(scope="module")
 def crash() -> Scenario:
-    """The hand path drives link3 into a small rotated box (at about t = 4.6 s)."""
-    return scenario_from_dict(planar_doc(obstacles=[BOX]))
+    """The hand path drives link3 into a small rotated box (at about t = 4.6 s) under the pseudo-inverse eq. 19."""
+    return scenario_from_dict(planar_doc(obstacles=[BOX], controller={"execution": "pseudoinverse"}))
 
 
 @pytest.fixture(scope="module")

@@ -143,7 +143,7 @@ def test_typo_at_top_level_and_in_obstacles() -> None:
     [
         ({"timing": {"dt": "fast"}}, r"timing\.dt must be a finite number, got 'fast'"),
         ({"controller": {"name": "multi", "weights": "0.3,0.7"}}, r"controller\.weights must be a list"),
-        ({"controller": {"name": "fancy"}}, r"controller\.name = 'fancy' is not valid; valid: none, gradient"),
+        ({"controller": {"name": "fancy"}}, r"controller\.name = 'fancy' is not valid; valid: none, qp, gradient"),
         ({"controller": {"preview_time": -1}}, r"controller\.preview_time must be > 0, got -1"),
         ({"controller": {"population": 2.5}}, r"controller\.population must be an integer, got 2\.5"),
         ({"output": {"gif": "yes"}}, r"output\.gif must be true or false"),

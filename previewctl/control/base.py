@@ -61,6 +61,11 @@ class ControlInfo:
         frame_due: whether this cycle started a camera frame (the searches ran one generation).
         targets: the imaginary arms ``q̃_i``, ``(p, nq)`` (preview modes), else ``None``.
         target_amsip: their AMSIP values ``(p,)`` (preview modes), else ``None``.
+        execution: ``pseudoinverse`` (eq. 19 with clamping and scaling) or ``qp``
+            (:mod:`previewctl.control.execution`); with ``qp``, ``scale`` is 1 and ``null_scale`` 1.
+        dampers: collision damper rows of the QP (pairs within the influence distance).
+        active_dampers: how many of them bind at the solution.
+        slack: the largest damper slack [m/s] (0: every damper held; > 0: the constraints were infeasible).
     """
 
     desired_position: Array
@@ -79,6 +84,10 @@ class ControlInfo:
     frame_due: bool
     targets: Array | None = None
     target_amsip: Array | None = None
+    execution: str = "pseudoinverse"
+    dampers: int = 0
+    active_dampers: int = 0
+    slack: float = 0.0
 
     @property
     def hand_error(self) -> float:

@@ -13,7 +13,9 @@ as you like::
         print(ctrl.last_info.hand_error)             # what the cycle computed (ControlInfo)
 
 Per call, :meth:`Controller.step` validates ``q``, computes its kinematics once, decides from ``t``
-whether a camera frame is due and runs the control law (eq. 19 with the mode's null-space input).
+whether a camera frame is due, runs the control law (eq. 19 with the mode's null-space input) and executes
+its command: through the constrained QP of :mod:`previewctl.control.execution` (``execution = "qp"``, the
+default) or as eq. 19 with clamping and scaling (``"pseudoinverse"``, the paper's).
 
 Camera frames: the GA searches of the preview modes run one generation per frame of period
 ``frame`` (33 ms by default), whatever the rate of your loop. A frame is due at the first call and
@@ -27,6 +29,7 @@ from __future__ import annotations
 import math
 
 from previewctl.control.base import ControlInfo, ControlLaw, ControlState
+from previewctl.control.execution import QPExecution
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ConfigurationError, ParameterError, PreviewctlError
 from previewctl.kinematics import kinematics, kinematics_reader
@@ -65,6 +68,7 @@ class Controller:
         path: the desired hand path ``r_d(t)``.
         frame: camera frame period [s].
         dt: control period [s] assumed at the first call (later calls use the time elapsed).
+        execution: the QP that executes the law's command, or ``None`` for eq. 19 as the law computed it.
 
     Raises:
         ParameterError: ``frame`` or ``dt`` not a time > 0.
@@ -78,8 +82,9 @@ class Controller:
         *,
         frame: float = FRAME_PERIOD,
         dt: float = CONTROL_PERIOD,
+        execution: QPExecution | None = None,
     ) -> None:
-        self.law, self.robot, self.path = law, robot, path
+        self.law, self.robot, self.path, self.execution = law, robot, path, execution
         self.frame = positive_period(frame, "frame")
         self.dt = positive_period(dt, "dt")
         self._reader = kinematics_reader(robot)  # built once: each step only reads through it
@@ -89,7 +94,7 @@ class Controller:
 
     @property
     def name(self) -> str:
-        """The mode: ``none``, ``gradient``, ``single``, ``multi``, ``reach`` or ``oracle``."""
+        """The mode: one of :data:`~previewctl.control.params.CONTROLLER_NAMES`."""
         return self.law.name
 
     @property
@@ -139,6 +144,8 @@ class Controller:
         kin = kinematics(self.robot, Q, reader=self._reader)
         state = ControlState(kin, self.path, period, frame_due=frame != self._last_frame)
         qdot, info = self.law.command(now, Q[0], state)
+        if self.execution is not None:
+            qdot, info = self.execution(now, Q[0], state, info)
         self._last_frame, self._last_t, self._last_info = frame, now, info
         return qdot
 

@@ -1,7 +1,8 @@
 """Building a controller: :func:`make_controller` (from a scenario or from parts) and :func:`build_law`.
 
-The names: ``none``, ``gradient``, ``single``, ``multi``, ``reach`` and ``oracle`` (non-causal: it
-follows the reachability DP's best motion over the whole future, a reference for the others).
+The names: ``none``, ``qp``, ``gradient``, ``single``, ``multi``, ``reach`` and ``oracle`` (non-causal: it
+follows the reachability DP's best motion over the whole future, a reference for the others). Every one is
+executed through the constrained QP unless ``params.execution = "pseudoinverse"``; ``qp`` always is.
 
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a
 ``numpy.random.Generator``, never from numpy's global state. ``seed`` is an ``int`` (the generator is
@@ -19,6 +20,7 @@ import numpy as np
 
 from previewctl.control.base import ControlLaw
 from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller
+from previewctl.control.execution import QPExecution
 from previewctl.control.gradient import GradientController
 from previewctl.control.oracle import OracleController
 from previewctl.control.params import CONTROLLER_NAMES, ControllerParams, ControllerSpec
@@ -132,16 +134,24 @@ def make_controller(
         raise ParameterError(f"make_controller({source!r}) needs {missing} (or a scenario instead of the name)")
     if base.name not in CONTROLLER_NAMES:
         raise UnknownNameError("controller", base.name, CONTROLLER_NAMES)
+    scene = (base.scene or Scene()) if scene is None else scene
     evaluator = Evaluator(
         robot,
-        base.scene if scene is None else scene,
+        scene,
         base.index if index is None else index,
         base.potential if potential is None else potential,
     )
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
     law = build_law(spec, robot, evaluator, rng, search_factory=search_factory)
-    return Controller(law, robot, path, frame=base.frame if frame is None else frame, dt=base.dt if dt is None else dt)
+    execution = QPExecution(robot, scene, spec.params) if uses_qp(spec) else None
+    return Controller(law, robot, path, frame=base.frame if frame is None else frame,
+                      dt=base.dt if dt is None else dt, execution=execution)
+
+
+def uses_qp(spec: ControllerSpec) -> bool:
+    """Whether the controller ``spec`` names is executed by the constrained QP (``qp`` always is)."""
+    return spec.name == "qp" or spec.params.execution == "qp"
 
 
 @dataclass(frozen=True)
@@ -204,8 +214,8 @@ def build_law(
             :class:`previewctl.search.ga.OneStepGA` over :func:`previewctl.search.maps.redundancy_map`.
     """
     params = spec.params
-    if spec.name == "none":
-        return TrackingController(robot, params)
+    if spec.name in ("none", "qp"):
+        return TrackingController(robot, params, spec.name)
     if spec.name == "gradient":
         return GradientController(robot, evaluator, params)
     if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command

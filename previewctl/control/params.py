@@ -32,9 +32,10 @@ from previewctl.validation import (
 
 PreviewMode = Literal["single", "multi", "reach"]
 """The controllers that steer the arm towards imaginary arms at future times."""
-ControllerName = Literal["none", "gradient", PreviewMode, "oracle"]
-"""Every controller: ``none`` (eq. 19 alone), ``gradient``, the preview modes, and ``oracle``, which is
-non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
+ControllerName = Literal["none", "qp", "gradient", PreviewMode, "oracle"]
+"""Every controller: ``none`` (eq. 19 alone), ``qp`` (eq. 19 with no null-space motion, always executed by the
+constrained QP: the velocity-damper method of NEO, the peer baseline), ``gradient``, the preview modes, and
+``oracle``, which is non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
 ExecutionMode = Literal["qp", "pseudoinverse"]
 """How a controller's eq. 19 command is executed: ``qp`` (a constrained QP with joint limits and collision velocity
 dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""
@@ -102,6 +103,13 @@ class ControllerParams(Checked):
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
+        task_weight: ``W``, the QP's weight of the hand term against the joint term
+            (:mod:`~previewctl.control.execution`).
+        slack_weight: the QP's penalty on the damper slacks when the dampers are infeasible.
+        damper_gain: ``ξ`` [m/s], the approach speed a damper allows at the influence distance.
+        influence_distance: ``d_i`` [m], link–obstacle distance below which a damper acts.
+        safety_distance: ``d_s`` [m], the distance a damper never lets a link approach closer than; ``< d_i``.
+        limit_margin: [rad] (or [m]) from a position limit within which the QP brakes the joint.
     """
 
     gain: Gains = (1.0,)
@@ -123,11 +131,22 @@ class ControllerParams(Checked):
     hysteresis: NonNegative = 0.2
     settle_frames: Count = 15
     track_radius: Positive = 0.5
-    execution: ExecutionMode = "pseudoinverse"
+    execution: ExecutionMode = "qp"
+    task_weight: Positive = 1e4
+    slack_weight: Positive = 1e6
+    damper_gain: Positive = 1.0
+    influence_distance: Positive = 0.3
+    safety_distance: NonNegative = 0.02
+    limit_margin: Positive = 0.1
 
     def check(self) -> None:
         """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
-        ``elite + top_k < population``)."""
+        ``elite + top_k < population``), and ``safety_distance < influence_distance``."""
+        if self.safety_distance >= self.influence_distance:
+            raise ParameterError(
+                f"safety_distance = {self.safety_distance} [m] must be smaller than influence_distance = "
+                f"{self.influence_distance} [m]"
+            )
         more = validate(GA_SETTINGS, dict(self.ga_options), ParameterError, where="ga_options")
         GAOptions(population=self.population, elite=self.elite, top_k=self.top_k,
                   **more.model_dump(exclude_unset=True))

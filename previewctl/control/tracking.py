@@ -231,12 +231,11 @@ def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
 
 
 class TrackingController:
-    """``none``: eq. 19 with ``v = 0`` (minimum-norm hand tracking)."""
+    """``none``: eq. 19 with ``v = 0`` (minimum-norm hand tracking); ``qp``: the same law, always executed by
+    the constrained QP (the controller built by :func:`~previewctl.control.factory.make_controller` sees to it)."""
 
-    name = "none"
-
-    def __init__(self, robot: Robot, params: ControllerParams | None = None) -> None:
-        self.robot, self.params = robot, params or ControllerParams()
+    def __init__(self, robot: Robot, params: ControllerParams | None = None, name: str = "none") -> None:
+        self.robot, self.params, self.name = robot, params or ControllerParams(), name
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]; see :func:`track`."""

@@ -2,20 +2,34 @@
 
 from __future__ import annotations
 
-import sys
 import warnings
+from dataclasses import dataclass
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-if sys.version_info >= (3, 11):
-    pass
-else:  # pragma: no cover - Python 3.10
-    pass
 from previewctl.robot.model import Robot
 from previewctl.scene.shapes import Scene
-from previewctl.types import Array
+from previewctl.types import Array, IntArray
+
+
+@dataclass(frozen=True)
+class Witnesses:
+    """The nearest points of every (guarded geometry, obstacle) pair of a :class:`Clearance` (``P`` pairs).
+
+    Attributes:
+        distance: ``(P,)`` signed distance [m] (negative: penetration depth).
+        robot_point: ``(P, 3)`` nearest point on the robot geometry [m], world frame.
+        obstacle_point: ``(P, 3)`` nearest point on the obstacle [m], world frame.
+        normal: ``(P, 3)`` unit vector from the robot towards the obstacle: the distance grows when the robot
+            point moves along ``−normal``.
+    """
+
+    distance: Array
+    robot_point: Array
+    obstacle_point: Array
+    normal: Array
 
 
 class Clearance:
@@ -24,6 +38,7 @@ class Clearance:
     Attributes:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
+        pair_joints: ``(P,)`` Pinocchio joint that carries the robot geometry of each pair.
     """
 
     def __init__(self, robot: Robot, scene: Scene) -> None:
@@ -40,14 +55,16 @@ class Clearance:
             shape = obstacle.shape.geometry()
             obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), shape)
             self._obstacle_ids.append(self.geometry.addGeometryObject(obj))
-        pair_links, pair_obstacles = [], []
+        pair_links, pair_obstacles, pair_joints = [], [], []
         for g in range(n_robot):
             for k, o in enumerate(self._obstacle_ids):
                 self.geometry.addCollisionPair(pin.CollisionPair(g, o))
                 pair_links.append(self._link_of_geom[g])
                 pair_obstacles.append(k)
+                pair_joints.append(int(self.geometry.geometryObjects[g].parentJoint))
         self.pair_links = np.array(pair_links, dtype=int)
         self.pair_obstacles = np.array(pair_obstacles, dtype=int)
+        self.pair_joints = np.array(pair_joints, dtype=int)
         # pairs grouped by link, for one minimum.reduceat per batch
         self._by_link = np.argsort(self.pair_links, kind="stable")
         self._links_present, self._link_starts = np.unique(self.pair_links[self._by_link], return_index=True)
@@ -76,6 +93,15 @@ class Clearance:
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
         return [result.min_distance for result in self._results]
+
+    def witnesses(self, data: pin.Data, within: float = np.inf) -> tuple[IntArray, Witnesses]:
+        """The pairs closer than ``within`` [m] for the joint placements in ``data``: their indices ``(R,)``
+        and their distances, nearest points and normals."""
+        distance = np.array(self.pair_distances(data))
+        near = np.flatnonzero(distance < within)
+        results = [self._results[k] for k in near]
+        points = np.array([(r.getNearestPoint1(), r.getNearestPoint2(), r.normal) for r in results]).reshape(-1, 3, 3)
+        return near, Witnesses(distance[near], points[:, 0], points[:, 1], points[:, 2])
 
     def per_link(self, pair_distances: Array) -> Array:
         """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""

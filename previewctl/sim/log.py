@@ -53,6 +53,8 @@ class RunResult:
         targets: ``(T, p, nq)`` the imaginary arms ``q~_i`` the controller steered toward (``p = 0``
             without previews; NaN where no command was computed, e.g. the colliding step).
         target_S: ``(T, p)`` their AMSIP values.
+        execution: how the commands were executed: ``qp`` or ``pseudoinverse``.
+        slack: ``(T,)`` the QP's largest collision-damper slack [m/s] (0 while every damper held).
     """
 
     scenario: str
@@ -79,6 +81,8 @@ class RunResult:
     velocity_limits: Array
     targets: Array
     target_S: Array  # noqa: N815 -- the paper's symbol S
+    execution: str
+    slack: Array
 
     @property
     def steps(self) -> int:
@@ -97,7 +101,8 @@ class RunResult:
         Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``collided``,
         ``collision_time`` [s], ``collision_link``, ``max_hand_error`` [m], ``min_clearance`` [m]
         (``None`` without obstacles), ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s],
-        ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``), ``cycle_time_median`` [s], ``cycle_time_max`` [s].
+        ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``), ``cycle_time_median`` [s], ``cycle_time_max`` [s],
+        ``execution``, ``max_slack`` [m/s].
         """
         k = self.collision_index
         link = None
@@ -123,6 +128,8 @@ class RunResult:
             "max_qdot_ratio": float(ratio.max()) if ratio.size else 0.0,
             "cycle_time_median": float(np.median(self.cycle_time)),
             "cycle_time_max": float(self.cycle_time.max()),
+            "execution": self.execution,
+            "max_slack": float(self.slack.max()) if self.steps else 0.0,
         }
 
 

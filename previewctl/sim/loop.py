@@ -93,6 +93,7 @@ def simulate(
         joint_names=robot.joint_names,
         link_names=links,
         velocity_limits=effective_velocity_limits(robot, controller.params.velocity_scale),
+        execution="qp" if controller.execution is not None else "pseudoinverse",
         **log.arrays(count),
     )
 
@@ -166,6 +167,7 @@ class _Log:
             "cycle_time": np.zeros(rows),
             "frame_due": np.zeros(rows, dtype=bool),
             "velocity_scale": np.ones(rows),
+            "slack": np.zeros(rows),
         }
         self.targets: Array | None = None  # (rows, p, nq) once the controller reports its imaginary arms
         self.target_S: Array | None = None
@@ -189,7 +191,7 @@ class _Log:
         c = self.columns
         self.record_hand(k, info.hand_position, info.desired_position)
         c["qdot"][k], c["qdot_requested"][k] = qdot, info.qdot_requested
-        c["velocity_scale"][k], c["frame_due"][k] = info.scale, info.frame_due
+        c["velocity_scale"][k], c["frame_due"][k], c["slack"][k] = info.scale, info.frame_due, info.slack
         if info.targets is not None and info.target_amsip is not None:
             if self.targets is None or self.target_S is None:
                 p = info.targets.shape[0]

@@ -1,0 +1,63 @@
+"""Cost of the QP execution layer per control cycle, beside the pseudo-inverse eq. 19 it replaces.
+
+For each scene, a ``none`` controller is stepped along a recorded run (the configurations a ``qp`` run
+visits), once with ``execution = "pseudoinverse"`` and once with ``"qp"``; the QP layer's own cost is the
+difference of the medians. Prints the medians, the p95 and the ratio to the pseudo-inverse cycle.
+
+Targets (issue 12): QP layer ≤ 0.3 ms per cycle on planar4, ≤ 1 ms on the Panda (median).
+
+    python benchmarks/bench_execution.py [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+import previewctl as pc
+from previewctl.sim.paper import canonical_scenario, shipped_scenarios_dir
+
+SCENES = ("paper_planar", "paper_fitted", "panda_crossing", "xarm7_crossing")
+
+
+def _scenario(name: str) -> pc.Scenario:
+    if name.startswith("paper_"):
+        return canonical_scenario(name)
+    return pc.load_scenario(shipped_scenarios_dir() / f"{name}.toml")
+
+
+def cycle_times(scenario: pc.Scenario, execution: str, qs: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Wall time [s] of ``step`` at each recorded state, for a fresh ``none`` controller."""
+    params = dataclasses.replace(scenario.controller.params, execution=execution)
+    ctrl = pc.make_controller(scenario, name="none", params=params)
+    out = np.empty(len(qs))
+    for k, (q, t) in enumerate(zip(qs, times, strict=True)):
+        start = time.perf_counter()
+        ctrl.step(q, float(t), 0.01)
+        out[k] = time.perf_counter() - start
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeat", type=int, default=3, help="passes over the recorded states (default 3)")
+    parser.add_argument("--seconds", type=float, default=10.0, help="simulated time recorded per scene [s]")
+    args = parser.parse_args()
+    print(f"{'scene':<16}{'nv':>3}{'pinv med':>10}{'qp med':>9}{'qp p95':>9}{'QP layer':>10}{'ratio':>7}")
+    for name in SCENES:
+        scenario = _scenario(name)
+        short = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=args.seconds))
+        run = pc.simulate(short, "qp")
+        qs, times = np.asarray(run.q), np.asarray(run.t)
+        pinv = np.concatenate([cycle_times(scenario, "pseudoinverse", qs, times) for _ in range(args.repeat)])
+        qp = np.concatenate([cycle_times(scenario, "qp", qs, times) for _ in range(args.repeat)])
+        layer = np.median(qp) - np.median(pinv)
+        print(f"{name:<16}{scenario.robot.nv:>3}{np.median(pinv) * 1e3:>8.3f}ms{np.median(qp) * 1e3:>7.3f}ms"
+              f"{np.percentile(qp, 95) * 1e3:>7.3f}ms{layer * 1e3:>8.3f}ms{np.median(qp) / np.median(pinv):>7.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,165 @@
+"""Tests of :mod:`previewctl.control.execution`: eq. 19 as a constrained QP (dampers, limits, slack)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import previewctl as pc
+from previewctl.control.base import ControlState
+from previewctl.control.execution import QPExecution
+from previewctl.control.params import ControllerParams
+from previewctl.control.tracking import TrackingController, track
+from previewctl.errors import ParameterError
+from previewctl.kinematics import kinematics
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.scene.clearance import Clearance
+from previewctl.types import Array
+
+PINV = ControllerParams(execution="pseudoinverse")
+
+
+def _state(robot: Robot, q: Array, path: HandPath, dt: float = 0.01) -> ControlState:
+    return ControlState(kinematics(robot, q[None, :]), path, dt, frame_due=True)
+
+
+def _hand_path(robot: Robot, q: Array, velocity: Array) -> HandPath:
+    """A straight 1 s path from the hand at ``q`` with constant ``velocity`` [m/s]."""
+    start = kinematics(robot, q[None, :]).tip_position[0][: 2 if robot.task == "planar" else 3]
+    return HandPath(np.array([start, start + velocity]), 1.0)
+
+
+@pytest.mark.parametrize("name", ["planar4", "panda"])
+def test_without_active_constraints_the_qp_is_eq_19(name: str, planar4: Robot, panda: Robot) -> None:
+    """No obstacle near, joints mid-range: the QP's command equals the pseudo-inverse eq. 19 to 1e-8, also
+    with a null-space input."""
+    robot = planar4 if name == "planar4" else panda
+    rng = np.random.default_rng(3)
+    lo, hi = robot.joints.lower, robot.joints.upper
+    execution = QPExecution(robot, pc.Scene(), ControllerParams())
+    for _ in range(10):
+        q = lo + (hi - lo) * rng.uniform(0.3, 0.7, robot.nq)
+        path = _hand_path(robot, q, rng.normal(0.0, 0.05, 2 if name == "planar4" else 3))
+        state = _state(robot, q, path)
+        v = rng.normal(0.0, 0.1, robot.nv)
+        expected, info = track(robot, 0.0, q, state, v, PINV)
+        assert info.scale == 1.0 and not info.clamped and info.null_scale == 1.0  # no limit active
+        qdot, report = execution(0.0, q, state, info)
+        np.testing.assert_allclose(qdot, expected, atol=1e-8)
+        assert report.execution == "qp" and report.dampers == 0 and report.slack == 0.0
+
+
+def _near_ball(robot: Robot) -> tuple[Array, pc.Scene]:
+    """A configuration of ``robot`` and a scene with a ball moving at 0.3 m/s at its elbow, 0.3 m above it at t = 0."""
+    q = np.array([0.3, -0.4, 0.2, -1.8, 0.1, 1.6, 0.5])
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    elbow = data.oMi[4].translation
+    motion = pc.ConstantVelocity(elbow + np.array([0.0, 0.0, 0.3]), np.array([0.0, 0.0, -0.3]))
+    return q, pc.Scene((pc.Obstacle("ball", pc.Sphere(0.05), motion),))
+
+
+def test_each_damper_row_matches_finite_differences_of_the_coal_distance(panda: Robot) -> None:
+    """``ḋ_k = n_kᵀ (v_obs − J_k q̇)``, the rate the damper bounds, against central differences of Coal's distance
+    over ``(q + q̇ ε, t + ε)``."""
+    q, scene = _near_ball(panda)
+    execution = QPExecution(panda, scene, ControllerParams())
+    t, eps = 0.6, 1e-6
+    rows = execution.dampers(q, t)
+    assert rows.h.size >= 2, "the ball should be within the influence distance of several links"
+    obstacle_rate = rows.h - ControllerParams().damper_gain * (rows.distance - 0.02) / (0.3 - 0.02)  # n·v_obs
+    clearance, data = Clearance(panda, scene), panda.model.createData()
+
+    def distances(qq: Array, tt: float) -> Array:
+        pin.forwardKinematics(panda.model, data, qq)
+        clearance.set_time(tt)
+        return np.array(clearance.pair_distances(data))[rows.pairs]
+
+    for qdot in np.random.default_rng(0).normal(0.0, 0.5, (3, panda.nv)):
+        plus = distances(pin.integrate(panda.model, q, qdot * eps), t + eps)
+        minus = distances(pin.integrate(panda.model, q, -qdot * eps), t - eps)
+        rate = (plus - minus) / (2 * eps)
+        np.testing.assert_allclose(rate, obstacle_rate - rows.G @ qdot, atol=1e-5)
+
+
+def test_an_approaching_ball_never_beats_the_damper(panda: Robot) -> None:
+    """A ball flies at the elbow while the hand holds still: at every step the distance falls no faster than the
+    damper allows (to the discretisation error of dt = 5 ms), and the link never touches it."""
+    q, scene = _near_ball(panda)
+    params = ControllerParams()
+    path = _hand_path(panda, q, np.array([0.0, 0.0, 1e-6]))
+    ctrl = pc.make_controller("qp", robot=panda, path=path, scene=scene, params=params)
+    clearance, data = Clearance(panda, scene), panda.model.createData()
+    dt, previous, closest, held = 0.005, None, np.inf, 0
+    for k in range(200):
+        t = k * dt
+        pin.forwardKinematics(panda.model, data, q)
+        clearance.set_time(t)
+        d = np.array(clearance.pair_distances(data))
+        closest = min(closest, float(d.min()))
+        if previous is not None:
+            near = previous < params.influence_distance
+            bound = -params.damper_gain * (previous - params.safety_distance) / (
+                params.influence_distance - params.safety_distance)
+            assert np.all(((d - previous) / dt)[near] >= bound[near] - 0.02)
+            held += int(near.sum())
+        qdot = ctrl.step(q, t, dt)
+        assert ctrl.last_info.slack == 0.0
+        q = pc.integrate(panda, q, qdot, dt)
+        previous = d
+    assert held > 100 and closest > 0.5 * params.safety_distance
+    assert ctrl.last_info.hand_error < 1e-3
+
+
+def test_an_obstacle_faster_than_the_arm_is_reported_as_slack(planar4: Robot) -> None:
+    """A disc at 5 m/s against link 2 of an arm limited to 0.1 rad/s: the dampers are infeasible, the QP is
+    solved with slack and says so."""
+    q = np.array([0.5, 0.5, 0.5, 0.5])
+    data = planar4.model.createData()
+    pin.forwardKinematics(planar4.model, data, q)
+    elbow = (data.oMi[2].translation + data.oMi[3].translation) / 2
+    normal = np.array([-np.sin(1.0), np.cos(1.0), 0.0])  # across link 2 (at 1 rad)
+    ball = pc.Obstacle("ball", pc.Sphere(0.05), pc.ConstantVelocity(elbow + 0.2 * normal, -5.0 * normal))
+    params = ControllerParams(velocity_scale=0.1)
+    path = _hand_path(planar4, q, np.array([1e-6, 0.0]))
+    state = _state(planar4, q, path)
+    _, info = TrackingController(planar4, params).command(0.0, q, state)
+    qdot, report = QPExecution(planar4, pc.Scene((ball,)), params)(0.0, q, state, info)
+    assert report.slack > 1.0 and report.dampers >= 1
+    assert np.all(np.abs(qdot) <= 0.1 * planar4.joints.velocity + 1e-12)
+
+
+def test_a_joint_at_its_limit_is_saturated_and_the_others_hold_the_hand(panda: Robot) -> None:
+    """Joint 1 at its upper limit; the minimum-norm hand motion would push it further. The pseudo-inverse clamps it
+    and the hand leaves its line; the QP holds joint 1 and moves the hand exactly with the other six."""
+    q = np.array([2.8973, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])  # joint 1 at its upper limit
+    velocity = np.array([0.1, -0.1, 0.0])
+    path = _hand_path(panda, q, velocity)
+    state = _state(panda, q, path)
+    pinv_qdot, info = track(panda, 0.0, q, state, np.zeros(panda.nv), PINV)
+    assert info.qdot_task[0] > 0 and info.clamped  # eq. 19 wants joint 1 to go on
+    J = state.kin.J_task[0]
+    assert np.linalg.norm(J @ pinv_qdot - velocity) > 0.01  # and loses the hand
+    qdot, report = QPExecution(panda, pc.Scene(), ControllerParams())(0.0, q, state, info)
+    assert qdot[0] <= 1e-12 and report.clamped
+    np.testing.assert_allclose(J @ qdot, velocity, atol=1e-3 * np.linalg.norm(velocity))
+
+
+def test_the_qp_controller_runs_by_name_and_the_pseudoinverse_stays_selectable(planar4: Robot) -> None:
+    q = np.array([1.2, 1.8, -2.9, 1.5])
+    path = _hand_path(planar4, q, np.array([0.1, 0.0]))
+    assert pc.make_controller("qp", robot=planar4, path=path, params=PINV).execution is not None  # qp is always a QP
+    assert pc.make_controller("none", robot=planar4, path=path, params=PINV).execution is None
+    assert pc.make_controller("none", robot=planar4, path=path).execution is not None  # the default is the QP
+
+
+def test_safety_distance_must_be_below_the_influence_distance() -> None:
+    with pytest.raises(ParameterError, match=r"safety_distance = 0\.4 \[m\] must be smaller than influence_distance "
+                                             r"= 0\.3 \[m\]"):
+        ControllerParams(safety_distance=0.4)
+    with pytest.raises(ParameterError, match="execution"):
+        dataclasses.replace(ControllerParams(), execution="fast")
