@@ -1,12 +1,14 @@
 """Preview control over seeds: every controller on a scene, seeds 0..N-1, one table per scene.
 
-For each (scene, controller): how many seeds finished collision-free, the median time of the first
-collision (over the seeds that collided), the worst hand error over all seeds, and the mean S over
-the runs. Runs go to a process pool (``--jobs``, default: the number of cores).
+For each (scene, controller): how many seeds succeeded (collision-free and max hand error < 5 mm), how
+many finished collision-free, the median time of the first collision (over the seeds that collided), the
+worst hand error over all seeds, and the mean S over the runs. Runs go to a process pool (``--jobs``,
+default: the number of cores).
 
 Run: ``python benchmarks/bench_preview.py [--seeds 10] [--controllers none,multi,...] [scenario.toml ...]``
 (default scenes: the shipped planar scenes). ``--set key=value`` overrides a controller parameter,
-e.g. ``--set coherent=false`` for the paper-literal eqs. 20/21.
+e.g. ``--set coherent=false`` for the paper-literal eqs. 20/21, ``--set execution=pseudoinverse`` for the
+paper's eq. 19 instead of the QP.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario
 
 DEFAULT_SCENES = ("paper_planar.toml",)
+SUCCESS_TOLERANCE = 5e-3  # [m]
 
 
 def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:
@@ -71,16 +74,18 @@ def main() -> None:
             outcomes.setdefault((path, controller), []).append(outcome)
     for scene in scenes:
         print(f"\n{Path(scene).name}, seeds 0-{args.seeds - 1}{', ' + str(settings) if settings else ''}")
-        print(f"{'controller':<10}{'collision-free':>16}{'first collision (median)':>26}{'max hand error':>16}"
-              f"{'mean S':>9}")
+        print(f"{'controller':<10}{'success':>9}{'collision-free':>16}{'first collision (median)':>26}"
+              f"{'max hand error':>16}{'mean S':>9}")
         for controller in controllers:
             rows = outcomes[(scene, controller)]
             free = sum(r["collided"] == 0.0 for r in rows)
+            success = sum(r["collided"] == 0.0 and r["max_hand_error"] < SUCCESS_TOLERANCE for r in rows)
             times = [r["collision_time"] for r in rows if r["collided"]]
             first = f"{np.median(times):.2f} s" if times else "-"
             error = max(r["max_hand_error"] for r in rows) * 1e3
             mean_S = np.mean([r["mean_S"] for r in rows])
-            print(f"{controller:<10}{f'{free} / {len(rows)}':>16}{first:>26}{error:>13.2f} mm{mean_S:>9.0f}")
+            counts = f"{f'{success} / {len(rows)}':>9}{f'{free} / {len(rows)}':>16}"
+            print(f"{controller:<10}{counts}{first:>26}{error:>13.2f} mm{mean_S:>9.0f}")
 
 
 if __name__ == "__main__":

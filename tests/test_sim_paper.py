@@ -15,7 +15,14 @@ from previewctl.control.params import CONTROLLER_NAMES, ControllerSpec
 from previewctl.errors import PreviewctlError
 from previewctl.kinematics import kinematics
 from previewctl.sim.loop import simulate
-from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, canonical_scenario, with_controller
+from previewctl.sim.paper import (
+    CANONICAL_SCENES,
+    PAPER_CONTROLLERS,
+    canonical_scenario,
+    paper_runs,
+    run_paper_scenes,
+    with_controller,
+)
 
 
 @pytest.mark.parametrize("name", CANONICAL_SCENES)
@@ -45,25 +52,26 @@ def test_paper_controllers_use_the_paper_parameters() -> None:
         assert got == dataclasses.replace(params, preview_time=5.0, weights=(0.3, 0.65, 0.05))
     # the paper's comparison covers every controller the package offers
     assert tuple(PAPER_CONTROLLERS) == CONTROLLER_NAMES
-    with pytest.raises(PreviewctlError, match=r"unknown controller 'fast'; valid: none, gradient, single, multi"):
+    with pytest.raises(PreviewctlError, match=r"unknown controller 'fast'; valid: none, qp, gradient, single, multi"):
         with_controller(scenario, "fast")
 
 
 def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Both scenes, fitted first; on the staircase plain tracking keeps the elbow-right family and hits the trap."""
+    """Both scenes, fitted first; on the staircase the paper's eq. 19 keeps the elbow-right family and hits the trap."""
     out = tmp_path / "paper"
-    assert main(["paper", "--controllers", "none", "--out", str(out), "--no-gif"]) == 0
+    argv = ["paper", "--controllers", "none", "--executions", "pseudoinverse", "--out", str(out), "--no-gif"]
+    assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert list(summary) == list(CANONICAL_SCENES) == ["paper_fitted", "paper_planar"]
-    assert all(list(runs) == ["none"] for runs in summary.values())
+    assert all(list(runs) == ["none-pinv"] for runs in summary.values())
     assert json.loads((out / "paper_fitted" / "summary.json").read_text()) == summary["paper_fitted"]
-    assert (out / "paper_fitted" / "none" / "run.npz").is_file()
-    none = summary["paper_planar"]["none"]
+    assert (out / "paper_fitted" / "none-pinv" / "run.npz").is_file()
+    none = summary["paper_planar"]["none-pinv"]
     assert none["collided"] and none["collision_link"] == "link3"
     assert 28.0 < none["collision_time"] < 30.5  # link 3 meets the corner at C as the hand nears D
     assert none["max_hand_error"] < 1e-3
-    assert (out / "paper_planar" / "none" / "run.npz").is_file()
-    assert (out / "paper_planar" / "none" / "strobe.png").is_file()
+    assert (out / "paper_planar" / "none-pinv" / "run.npz").is_file()
+    assert (out / "paper_planar" / "none-pinv" / "strobe.png").is_file()
     table = capsys.readouterr().out
     assert table.index("paper_fitted (") < table.index("paper_planar (") and "link3" in table
 
@@ -87,3 +95,13 @@ def test_short_multi_preview_run_tracks_without_collision() -> None:
         expected = [short.path.position(t_frame + 5.0 * i) for i in (1, 2, 3)]
         np.testing.assert_allclose(hands, expected, atol=1e-6)
         assert np.all(result.target_S[k] > 0)
+
+
+def test_paper_runs_label_each_distinct_run_once() -> None:
+    runs = paper_runs(["none", "qp", "multi"])
+    assert runs == {"qp": ("qp", "qp"), "multi": ("multi", "qp"), "none-pinv": ("none", "pseudoinverse"),
+                    "multi-pinv": ("multi", "pseudoinverse")}
+    assert paper_runs(["none"], ["qp"]) == {"qp": ("qp", "qp")}
+    assert paper_runs(["qp"], ["pseudoinverse"]) == {"none-pinv": ("none", "pseudoinverse")}
+    with pytest.raises(PreviewctlError, match=r"unknown execution 'fast'; valid: qp, pseudoinverse"):
+        run_paper_scenes("unused", executions=["fast"])

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from previewctl.cli.common import Commands, ProgressBar
+from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
 from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, run_paper_scenes
@@ -22,12 +23,15 @@ def add_parser(commands: Commands) -> None:
         help="the paper's planar experiment with every controller (the main job)",
         description="Run the canonical planar scenes (scenarios/paper_fitted.toml: planar4 tracing five 0.75 m "
         "segments fitted to the paper's Table 3 along a target object, 50 s; scenarios/paper_planar.toml: the "
-        "inverted staircase with a pillar trap) with none, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
-        "k = 0.3, 0.65, 0.05), reach and the non-causal oracle; print one comparison table per scene; write "
-        "each run's log and figures to OUT/<scene>/<controller>/ and OUT/summary.json.",
+        "inverted staircase with a pillar trap) with none, qp, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
+        "k = 0.3, 0.65, 0.05), reach and the non-causal oracle, each executed by the constrained QP (label: the "
+        "controller's name; none under the QP is the qp baseline) and by the paper's pseudo-inverse eq. 19 "
+        "(label: <name>-pinv); print one comparison table per scene; write each run's log and figures to "
+        "OUT/<scene>/<label>/ and OUT/summary.json.",
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")
+    paper.add_argument("--executions", help="comma-separated subset of qp,pseudoinverse (default: both)")
     paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
     paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
@@ -43,15 +47,15 @@ def _names(option: str | None, valid: tuple[str, ...], flag: str) -> list[str]:
 
 
 def _table(scene: str, summaries: dict[str, dict[str, Any]], out: Path) -> None:
-    print(f"\n{scene} (scenarios/{scene}.toml), 50 s; figures and logs in {out / scene}/<controller>/")
-    header = (f"{'controller':<11}{'collision-free':<30}{'max hand err':>13}{'min clear':>11}"
+    print(f"\n{scene} (scenarios/{scene}.toml), 50 s; figures and logs in {out / scene}/<run>/")
+    header = (f"{'run':<15}{'collision-free':<30}{'max hand err':>13}{'min clear':>11}"
               f"{'mean S':>9}{'min S':>9}{'max|qd|':>9}{'cycle med/max [ms]':>20}")
     print(header)
     print("-" * len(header))
     for name, s in summaries.items():
         verdict = (f"NO: t={s['collision_time']:.2f} s {s['collision_link']}" if s["collided"] else "yes")
         clearance = "-" if s["min_clearance"] is None else f"{s['min_clearance'] * 1e3:.1f} mm"
-        print(f"{name:<11}{verdict:<30}{s['max_hand_error'] * 1e3:>10.2f} mm{clearance:>11}{s['mean_S']:>9.0f}"
+        print(f"{name:<15}{verdict:<30}{s['max_hand_error'] * 1e3:>10.2f} mm{clearance:>11}{s['mean_S']:>9.0f}"
               f"{s['min_S']:>9.0f}{s['max_abs_qdot']:>9.3f}"
               f"{s['cycle_time_median'] * 1e3:>11.2f} / {s['cycle_time_max'] * 1e3:.1f}")
 
@@ -59,6 +63,7 @@ def _table(scene: str, summaries: dict[str, dict[str, Any]], out: Path) -> None:
 def cmd_paper(args: argparse.Namespace) -> int:
     """Run the canonical planar scenes with every controller: comparison tables, figures, summary.json."""
     names = _names(args.controllers, tuple(PAPER_CONTROLLERS), "--controllers")
+    executions = _names(args.executions, EXECUTION_MODES, "--executions")
     scenes = _names(args.scenes, CANONICAL_SCENES, "--scenes")
     out = Path(args.out)
     bars: list[ProgressBar] = []
@@ -66,7 +71,7 @@ def cmd_paper(args: argparse.Namespace) -> int:
     def progress(scene: str, name: str) -> Callable[[float, float], None]:
         if bars:
             bars[-1].close()
-        bars.append(ProgressBar(f"{scene}/{name:<9}"))
+        bars.append(ProgressBar(f"{scene}/{name:<13}"))
         return bars[-1].update
 
     def figures(name: str, scenario: Scenario, result: RunResult, folder: Path) -> None:
@@ -74,7 +79,8 @@ def cmd_paper(args: argparse.Namespace) -> int:
 
     try:
         results = run_paper_scenes(
-            out, scenes=scenes, controllers=names, seed=args.seed, progress=progress, after_run=figures
+            out, scenes=scenes, controllers=names, executions=executions, seed=args.seed, progress=progress,
+            after_run=figures,
         )
     finally:
         if bars:

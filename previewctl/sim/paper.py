@@ -9,10 +9,18 @@ The canonical scenes (:data:`CANONICAL_SCENES`, in the order ``previewctl paper`
 Controllers and their parameters (the paper's where it gives them):
 
 * ``none``: eq. 19 with feedback, no null-space term (baseline);
+* ``qp``: the same with the constrained QP of :mod:`previewctl.control.execution` (the velocity-damper
+  method of NEO: the peer baseline);
 * ``gradient``: local null-space ascent of AMSIP (a local-method baseline);
 * ``single``: eq. 20, one imaginary arm at ``t + 10 s`` (section 7.1);
 * ``multi``: eq. 21, three imaginary arms at ``t + 5, 10, 15 s``, ``k = (0.3, 0.65, 0.05)`` (section 7.2);
-* ``reach``: the reachability sequence of Fig. 3 over the same three preview times and weights.
+* ``reach``: the reachability sequence of Fig. 3 over the same three preview times and weights;
+* ``oracle``: the reachability DP's best motion (non-causal: a reference).
+
+Each controller runs under both executions (:data:`~previewctl.control.params.EXECUTION_MODES`): the QP
+(the default, labelled with the controller's name) and the paper's pseudo-inverse eq. 19 (labelled
+``<name>-pinv``). ``none`` under the QP is the ``qp`` baseline and ``qp`` is always a QP, so the pair
+``none``/``qp`` gives two runs, ``qp`` and ``none-pinv`` (:func:`paper_runs`).
 """
 
 from __future__ import annotations
@@ -26,7 +34,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from previewctl.control.params import CONTROLLER_NAMES, PAPER_WEIGHTS, ControllerSpec
+from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, PAPER_WEIGHTS, ControllerSpec
 from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_write_bytes
 from previewctl.sim.log import RunResult, save_run
@@ -40,6 +48,26 @@ _PAPER_PARAMETERS: dict[str, dict[str, Any]] = {
 }
 PAPER_CONTROLLERS: dict[str, dict[str, Any]] = {name: _PAPER_PARAMETERS.get(name, {}) for name in CONTROLLER_NAMES}
 """Every controller, with its parameter overrides (on top of the scenario's ``[controller]`` table)."""
+
+
+PINV_SUFFIX = "-pinv"
+"""Label suffix of a run executed by the pseudo-inverse eq. 19 (the QP runs carry the bare controller name)."""
+
+
+def paper_runs(controllers: Sequence[str], executions: Sequence[str] = EXECUTION_MODES) -> dict[str, tuple[str, str]]:
+    """The runs of ``controllers`` × ``executions`` as ``{label: (controller, execution)}``, in order.
+
+    ``none`` under the QP is the ``qp`` baseline (labelled ``qp``), and ``qp`` under the pseudo-inverse is
+    ``none`` (labelled ``none-pinv``): each distinct run appears once.
+    """
+    runs: dict[str, tuple[str, str]] = {}
+    for execution in executions:
+        for name in controllers:
+            controller = {"none": "qp", "qp": "qp"}.get(name, name) if execution == "qp" else (
+                "none" if name == "qp" else name)
+            label = controller if execution == "qp" else controller + PINV_SUFFIX
+            runs.setdefault(label, (controller, execution))
+    return runs
 
 
 def shipped_scenarios_dir() -> Path:
@@ -65,11 +93,13 @@ def canonical_scenario(name: str = CANONICAL_SCENES[0]) -> Scenario:
     return load_scenario(shipped_scenarios_dir() / f"{name}.toml")
 
 
-def with_controller(scenario: Scenario, name: str) -> Scenario:
-    """``scenario`` with controller ``name`` and the paper's parameters for it."""
+def with_controller(scenario: Scenario, name: str, execution: str | None = None) -> Scenario:
+    """``scenario`` with controller ``name``, the paper's parameters for it and ``execution`` (default: the
+    scenario's)."""
     if name not in PAPER_CONTROLLERS:
         raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
-    params = dataclasses.replace(scenario.controller.params, **PAPER_CONTROLLERS[name])
+    changes = dict(PAPER_CONTROLLERS[name]) | ({} if execution is None else {"execution": execution})
+    params = dataclasses.replace(scenario.controller.params, **changes)
     return dataclasses.replace(scenario, controller=ControllerSpec(name, params))
 
 
@@ -77,35 +107,37 @@ def run_paper(
     out_dir: str | os.PathLike[str],
     *,
     controllers: Sequence[str] = tuple(PAPER_CONTROLLERS),
+    executions: Sequence[str] = EXECUTION_MODES,
     seed: int | None = None,
     scenario: Scenario | None = None,
     progress: Callable[[str], Callable[[float, float], None]] | None = None,
     after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
 ) -> dict[str, dict[str, Any]]:
-    """Run one scene with each controller; write each run and ``summary.json``.
+    """Run one scene with each controller under each execution; write each run and ``summary.json``.
 
     Args:
-        out_dir: output folder; each controller's log goes to ``out_dir/<name>/``.
+        out_dir: output folder; each run's log goes to ``out_dir/<label>/`` (:func:`paper_runs`).
         controllers: which controllers, in order.
+        executions: which executions (``qp``, ``pseudoinverse``), in order.
         seed: random seed (default: the scenario's).
         scenario: the scene (default :func:`canonical_scenario`, the Table-3 fit).
-        progress: ``progress(name)`` returns the progress callback of that controller's run.
-        after_run: called after each run with (name, scenario, result, folder), e.g. to draw figures.
+        progress: ``progress(label)`` returns the progress callback of that run.
+        after_run: called after each run with (label, scenario, result, folder), e.g. to draw figures.
 
     Returns:
-        The summary per controller (also written, atomically, to ``out_dir/summary.json``).
+        The summary per run label (also written, atomically, to ``out_dir/summary.json``).
     """
     base = scenario or canonical_scenario()
     out = Path(out_dir)
     summaries: dict[str, dict[str, Any]] = {}
-    for name in controllers:
-        run_scenario = with_controller(base, name)
-        result = simulate(run_scenario, name, progress=progress(name) if progress else None, seed=seed)
-        folder = out / name
+    for label, (name, execution) in paper_runs(controllers, executions).items():
+        run_scenario = with_controller(base, name, execution)
+        result = simulate(run_scenario, name, progress=progress(label) if progress else None, seed=seed)
+        folder = out / label
         save_run(result, folder)
         if after_run is not None:
-            after_run(name, run_scenario, result, folder)
-        summaries[name] = result.summary()
+            after_run(label, run_scenario, result, folder)
+        summaries[label] = result.summary()
     text = (json.dumps(summaries, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(out / "summary.json", text)
@@ -117,6 +149,7 @@ def run_paper_scenes(
     *,
     scenes: Sequence[str] = CANONICAL_SCENES,
     controllers: Sequence[str] = tuple(PAPER_CONTROLLERS),
+    executions: Sequence[str] = EXECUTION_MODES,
     seed: int | None = None,
     progress: Callable[[str, str], Callable[[float, float], None]] | None = None,
     after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
@@ -128,27 +161,30 @@ def run_paper_scenes(
             with every scene.
         scenes: which canonical scenes, in order (names of :data:`CANONICAL_SCENES`).
         controllers: which controllers, in order.
+        executions: which executions, in order.
         seed: random seed (default: each scenario's).
-        progress: ``progress(scene, controller)`` returns the progress callback of that run.
+        progress: ``progress(scene, label)`` returns the progress callback of that run.
         after_run: as in :func:`run_paper`.
 
     Returns:
         ``{scene: {controller: summary}}`` (also written, atomically, to ``out_dir/summary.json``).
 
     Raises:
-        PreviewctlError: an unknown scene or controller name (checked before anything runs).
+        PreviewctlError: an unknown scene, controller or execution name (checked before anything runs).
     """
     for name in controllers:
         if name not in PAPER_CONTROLLERS:
             raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
+    for execution in executions:
+        if execution not in EXECUTION_MODES:
+            raise PreviewctlError(f"unknown execution {execution!r}; valid: {', '.join(EXECUTION_MODES)}")
     loaded = [canonical_scenario(scene) for scene in scenes]
     out = Path(out_dir)
     results: dict[str, dict[str, dict[str, Any]]] = {}
     for scene, scenario in zip(scenes, loaded, strict=True):
         per_run = None if progress is None else functools.partial(progress, scene)
-        results[scene] = run_paper(
-            out / scene, controllers=controllers, seed=seed, scenario=scenario, progress=per_run, after_run=after_run
-        )
+        results[scene] = run_paper(out / scene, controllers=controllers, executions=executions, seed=seed,
+                                   scenario=scenario, progress=per_run, after_run=after_run)
     text = (json.dumps(results, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(out / "summary.json", text)
