@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
+import functools
+import os
+import sys
 from pathlib import Path
 from typing import Any
 
-from previewctl.cli.common import Commands, ProgressBar
+from tqdm import tqdm
+
+from previewctl.cli.common import Commands
 from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
-from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, run_paper_scenes
+from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, PaperRun, paper_plan, run_paper_scenes
 from previewctl.sim.scenario import Scenario
 from previewctl.viz.figures import make_figures
 
@@ -35,6 +39,8 @@ def add_parser(commands: Commands) -> None:
     paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
     paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
+    paper.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                       help="runs in parallel, one process each (default: the number of cores)")
     paper.set_defaults(func=cmd_paper)
 
 
@@ -60,31 +66,34 @@ def _table(scene: str, summaries: dict[str, dict[str, Any]], out: Path) -> None:
               f"{s['cycle_time_median'] * 1e3:>11.2f} / {s['cycle_time_max'] * 1e3:.1f}")
 
 
+def _figures(label: str, scenario: Scenario, result: RunResult, folder: Path, *, gif: bool) -> None:
+    """A run's figures (module level, so that worker processes can receive it)."""
+    make_figures(result, scenario, folder, gif=None if gif else False)
+
+
 def cmd_paper(args: argparse.Namespace) -> int:
     """Run the canonical planar scenes with every controller: comparison tables, figures, summary.json."""
     names = _names(args.controllers, tuple(PAPER_CONTROLLERS), "--controllers")
     executions = _names(args.executions, EXECUTION_MODES, "--executions")
     scenes = _names(args.scenes, CANONICAL_SCENES, "--scenes")
+    if args.jobs < 1:
+        raise PreviewctlError(f"--jobs must be >= 1, got {args.jobs}")
     out = Path(args.out)
-    bars: list[ProgressBar] = []
+    plan = paper_plan(scenes, names, executions)
+    bar = tqdm(total=len(plan), desc="paper runs", unit="run", file=sys.stderr, ascii=".#")
 
-    def progress(scene: str, name: str) -> Callable[[float, float], None]:
-        if bars:
-            bars[-1].close()
-        bars.append(ProgressBar(f"{scene}/{name:<13}"))
-        return bars[-1].update
-
-    def figures(name: str, scenario: Scenario, result: RunResult, folder: Path) -> None:
-        make_figures(result, scenario, folder, gif=False if args.no_gif else None)
+    def done(run: PaperRun, summary: dict[str, Any]) -> None:
+        verdict = f"collision at {summary['collision_time']:.2f} s" if summary["collided"] else "collision-free"
+        bar.write(f"{run.scene}/{run.label}: {verdict}, max hand error {summary['max_hand_error'] * 1e3:.2f} mm",
+                  file=sys.stderr)
+        bar.update()
 
     try:
-        results = run_paper_scenes(
-            out, scenes=scenes, controllers=names, executions=executions, seed=args.seed, progress=progress,
-            after_run=figures,
-        )
+        results = run_paper_scenes(out, scenes=scenes, controllers=names, executions=executions, seed=args.seed,
+                                   jobs=min(args.jobs, len(plan)), on_done=done,
+                                   after_run=functools.partial(_figures, gif=not args.no_gif))
     finally:
-        if bars:
-            bars[-1].close()
+        bar.close()
     for scene, summaries in results.items():
         _table(scene, summaries, out)
     print(f"written {out / 'summary.json'} (and {out}/<scene>/summary.json)")

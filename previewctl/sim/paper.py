@@ -26,10 +26,11 @@ Each controller runs under both executions (:data:`~previewctl.control.params.EX
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -103,45 +104,49 @@ def with_controller(scenario: Scenario, name: str, execution: str | None = None)
     return dataclasses.replace(scenario, controller=ControllerSpec(name, params))
 
 
-def run_paper(
-    out_dir: str | os.PathLike[str],
-    *,
-    controllers: Sequence[str] = tuple(PAPER_CONTROLLERS),
-    executions: Sequence[str] = EXECUTION_MODES,
-    seed: int | None = None,
-    scenario: Scenario | None = None,
-    progress: Callable[[str], Callable[[float, float], None]] | None = None,
-    after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
-) -> dict[str, dict[str, Any]]:
-    """Run one scene with each controller under each execution; write each run and ``summary.json``.
+@dataclass(frozen=True)
+class PaperRun:
+    """One run of ``previewctl paper``: a canonical scene, a controller and an execution, under a label."""
 
-    Args:
-        out_dir: output folder; each run's log goes to ``out_dir/<label>/`` (:func:`paper_runs`).
-        controllers: which controllers, in order.
-        executions: which executions (``qp``, ``pseudoinverse``), in order.
-        seed: random seed (default: the scenario's).
-        scenario: the scene (default :func:`canonical_scenario`, the Table-3 fit).
-        progress: ``progress(label)`` returns the progress callback of that run.
-        after_run: called after each run with (label, scenario, result, folder), e.g. to draw figures.
+    scene: str
+    label: str
+    controller: str
+    execution: str
 
-    Returns:
-        The summary per run label (also written, atomically, to ``out_dir/summary.json``).
+
+def paper_plan(scenes: Sequence[str], controllers: Sequence[str], executions: Sequence[str]) -> list[PaperRun]:
+    """The runs of ``scenes`` × :func:`paper_runs`, in order.
+
+    Raises:
+        PreviewctlError: an unknown scene, controller or execution name.
     """
-    base = scenario or canonical_scenario()
-    out = Path(out_dir)
-    summaries: dict[str, dict[str, Any]] = {}
-    for label, (name, execution) in paper_runs(controllers, executions).items():
-        run_scenario = with_controller(base, name, execution)
-        result = simulate(run_scenario, name, progress=progress(label) if progress else None, seed=seed)
-        folder = out / label
-        save_run(result, folder)
-        if after_run is not None:
-            after_run(label, run_scenario, result, folder)
-        summaries[label] = result.summary()
-    text = (json.dumps(summaries, indent=2) + "\n").encode("utf-8")
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(out / "summary.json", text)
-    return summaries
+    for name in controllers:
+        if name not in PAPER_CONTROLLERS:
+            raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
+    for execution in executions:
+        if execution not in EXECUTION_MODES:
+            raise PreviewctlError(f"unknown execution {execution!r}; valid: {', '.join(EXECUTION_MODES)}")
+    for scene in scenes:
+        if scene not in CANONICAL_SCENES:
+            raise PreviewctlError(f"unknown canonical scene {scene!r}; valid: {', '.join(CANONICAL_SCENES)}")
+    runs = paper_runs(controllers, executions)
+    return [PaperRun(scene, label, *runs[label]) for scene in scenes for label in runs]
+
+
+AfterRun = Callable[[str, Scenario, RunResult, Path], None]
+"""``after_run(label, scenario, result, folder)``, called where the run ran (e.g. to draw its figures); it must
+pickle (a module-level function or a ``functools.partial`` of one) when runs go to worker processes."""
+
+
+def run_one(run: PaperRun, out_dir: Path, seed: int | None = None, after_run: AfterRun | None = None) -> dict[str, Any]:
+    """Simulate one run, save it to ``out_dir/<scene>/<label>/`` and return its summary."""
+    scenario = with_controller(canonical_scenario(run.scene), run.controller, run.execution)
+    result = simulate(scenario, run.controller, seed=seed)
+    folder = out_dir / run.scene / run.label
+    save_run(result, folder)
+    if after_run is not None:
+        after_run(run.label, scenario, result, folder)
+    return result.summary()
 
 
 def run_paper_scenes(
@@ -151,41 +156,50 @@ def run_paper_scenes(
     controllers: Sequence[str] = tuple(PAPER_CONTROLLERS),
     executions: Sequence[str] = EXECUTION_MODES,
     seed: int | None = None,
-    progress: Callable[[str, str], Callable[[float, float], None]] | None = None,
-    after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
+    jobs: int = 1,
+    on_done: Callable[[PaperRun, dict[str, Any]], None] | None = None,
+    after_run: AfterRun | None = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
-    """:func:`run_paper` on each canonical scene, into ``out_dir/<scene>/<controller>/``.
+    """Every controller under every execution on each canonical scene, into ``out_dir/<scene>/<label>/``.
 
     Args:
         out_dir: output folder; ``out_dir/<scene>/summary.json`` per scene and ``out_dir/summary.json``
             with every scene.
         scenes: which canonical scenes, in order (names of :data:`CANONICAL_SCENES`).
         controllers: which controllers, in order.
-        executions: which executions, in order.
+        executions: which executions, in order (:func:`paper_runs` labels the runs).
         seed: random seed (default: each scenario's).
-        progress: ``progress(scene, label)`` returns the progress callback of that run.
-        after_run: as in :func:`run_paper`.
+        jobs: worker processes (1: in this process); the runs are independent, so the results do not depend on it.
+        on_done: called as ``on_done(run, summary)`` when each run finishes (in completion order).
+        after_run: see :data:`AfterRun`.
 
     Returns:
-        ``{scene: {controller: summary}}`` (also written, atomically, to ``out_dir/summary.json``).
+        ``{scene: {label: summary}}`` in plan order (also written, atomically, to ``out_dir/summary.json``).
 
     Raises:
         PreviewctlError: an unknown scene, controller or execution name (checked before anything runs).
     """
-    for name in controllers:
-        if name not in PAPER_CONTROLLERS:
-            raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
-    for execution in executions:
-        if execution not in EXECUTION_MODES:
-            raise PreviewctlError(f"unknown execution {execution!r}; valid: {', '.join(EXECUTION_MODES)}")
-    loaded = [canonical_scenario(scene) for scene in scenes]
+    plan = paper_plan(scenes, controllers, executions)
     out = Path(out_dir)
+    summaries: dict[PaperRun, dict[str, Any]] = {}
+    if jobs <= 1:
+        for run in plan:
+            summaries[run] = run_one(run, out, seed, after_run)
+            if on_done is not None:
+                on_done(run, summaries[run])
+    else:
+        with ProcessPoolExecutor(jobs) as pool:
+            futures = {pool.submit(run_one, run, out, seed, after_run): run for run in plan}
+            for future in as_completed(futures):
+                run = futures[future]
+                summaries[run] = future.result()
+                if on_done is not None:
+                    on_done(run, summaries[run])
     results: dict[str, dict[str, dict[str, Any]]] = {}
-    for scene, scenario in zip(scenes, loaded, strict=True):
-        per_run = None if progress is None else functools.partial(progress, scene)
-        results[scene] = run_paper(out / scene, controllers=controllers, executions=executions, seed=seed,
-                                   scenario=scenario, progress=per_run, after_run=after_run)
-    text = (json.dumps(results, indent=2) + "\n").encode("utf-8")
+    for run in plan:
+        results.setdefault(run.scene, {})[run.label] = summaries[run]
+    for scene, per_scene in results.items():
+        atomic_write_bytes(out / scene / "summary.json", (json.dumps(per_scene, indent=2) + "\n").encode("utf-8"))
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(out / "summary.json", text)
+    atomic_write_bytes(out / "summary.json", (json.dumps(results, indent=2) + "\n").encode("utf-8"))
     return results
