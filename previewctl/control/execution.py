@@ -44,10 +44,13 @@ from previewctl.control.params import ControllerParams
 from previewctl.control.tracking import effective_velocity_limits
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
+from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array, IntArray
 
 SOLVER = "daqp"
+_CYCLE = (1, 2, 0)
+_CYCLE2 = (2, 0, 1)
 _OBSTACLE_DT = 1e-3  # [s] forward difference of the obstacles' placements
 _ACTIVE_TOL = 1e-9  # [rad/s], [m/s]: a constraint within this of its bound counts as active
 
@@ -67,6 +70,11 @@ class Dampers:
     h: Array
     distance: Array
     pairs: IntArray
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """Row-wise cross products of ``(R, 3)`` arrays (``np.cross`` costs more than the rows for small ``R``)."""
+    return a[:, _CYCLE] * b[:, _CYCLE2] - a[:, _CYCLE2] * b[:, _CYCLE]
 
 
 class QPExecution:
@@ -96,20 +104,21 @@ class QPExecution:
         J = np.array([pin.getJointJacobian(model, data, int(j), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
                       for j in joints]).reshape(-1, 6, model.nv)
         lever = w.robot_point - np.array([data.oMi[int(j)].translation for j in joints]).reshape(-1, 3)
-        point_velocity = J[:, :3] + np.cross(J[:, 3:], lever[:, :, None], axis=1)  # v_joint + ω × lever
-        G = np.einsum("ri,rin->rn", w.normal, point_velocity)
-        obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
-        obstacle_speed = np.einsum("ri,ri->r", w.normal, obstacle_velocity)
+        # n·(v_joint + ω × lever) = n·v_joint + (lever × n)·ω
+        G = np.einsum("ri,rin->rn", w.normal, J[:, :3]) + np.einsum("ri,rin->rn", _cross(lever, w.normal), J[:, 3:])
+        obstacles = self.clearance.pair_obstacles[near]
+        obstacle_speed = np.array([w.normal[r] @ self._obstacle_velocity(int(o), t) for r, o in enumerate(obstacles)])
         approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
-        return Dampers(G, approach + obstacle_speed, w.distance, near)
+        return Dampers(G, approach + obstacle_speed.reshape(-1), w.distance, near)
 
-    def _obstacle_velocities(self, t: float) -> Array:
-        """``(O, 3)`` velocity [m/s] of each obstacle at time ``t`` [s] (the motions translate: their rotation
-        is fixed, so every point of an obstacle has this velocity)."""
-        times = np.array([t, t + _OBSTACLE_DT])
-        if not self.scene.obstacles:
-            return np.zeros((0, 3))
-        return np.array([np.diff(o.motion.positions(times), axis=0)[0] for o in self.scene.obstacles]) / _OBSTACLE_DT
+    def _obstacle_velocity(self, index: int, t: float) -> Array:
+        """Velocity [m/s] of obstacle ``index`` at time ``t`` [s]: the motions translate the obstacles (their
+        rotation is fixed), so every point of an obstacle has it."""
+        motion = self.scene.obstacles[index].motion
+        if isinstance(motion, Static):
+            return np.zeros(3)
+        positions = motion.positions(np.array([t, t + _OBSTACLE_DT]))
+        return (positions[1] - positions[0]) / _OBSTACLE_DT
 
     def bounds(self, q: Array, dt: float) -> tuple[Array, Array]:
         """Joint velocity bounds [rad/s] ``(nv,)`` each: speed limits, braking near the position limits."""

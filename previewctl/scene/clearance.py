@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array, IntArray
 
@@ -78,12 +79,14 @@ class Clearance:
         self._time = 0.0
 
     def set_time(self, t: float) -> None:
-        """Move the obstacles to their placements at time ``t`` [s] (nothing to do if already there)."""
+        """Move the obstacles to their placements at time ``t`` [s] (static ones never move; nothing to do if
+        already there)."""
         if float(t) == self._time:
             return
         self._time = float(t)
         for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
-            self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
+            if not isinstance(obstacle.motion, Static):
+                self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
 
     def pair_distances(self, data: pin.Data) -> list[float]:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
