@@ -64,7 +64,7 @@ class ProgressBar:
         self._fraction, self._t, self._updated = 0.0, 0.0, False
         self._start = time.perf_counter()
         self._bar = tqdm(total=1.0, desc=label, bar_format=self.BAR_FORMAT, ascii=".#", file=self._file,
-                         mininterval=0.1, leave=True, postfix=self._time(0.0), disable=not _is_terminal(self._file))
+                         mininterval=0.1, leave=True, postfix=self._time(0.0), disable=not is_terminal(self._file))
 
     @staticmethod
     def _time(t: float) -> str:
@@ -87,7 +87,8 @@ class ProgressBar:
             self._file.flush()
 
 
-def _is_terminal(stream: TextIO) -> bool:
+def is_terminal(stream: TextIO) -> bool:
+    """Whether ``stream`` is a terminal (progress bars are drawn only there)."""
     isatty = getattr(stream, "isatty", None)
     return bool(isatty is not None and isatty())
 
