@@ -28,7 +28,7 @@ from typing import Any
 
 from previewctl.control.params import CONTROLLER_NAMES, PAPER_WEIGHTS, ControllerSpec
 from previewctl.errors import PreviewctlError
-from previewctl.files import atomic_write_bytes
+from previewctl.files import atomic_folder, atomic_write_bytes, check_output_folder
 from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -90,21 +90,22 @@ def run_paper(
         seed: random seed (default: the scenario's).
         scenario: the scene (default :func:`canonical_scenario`, the Table-3 fit).
         progress: ``progress(name)`` returns the progress callback of that controller's run.
-        after_run: called after each run with (name, scenario, result, folder), e.g. to draw figures.
+        after_run: called after each run with (name, scenario, result, folder), e.g. to draw figures (``folder``
+            is the run's temporary folder, which becomes ``out_dir/<name>/`` once ``after_run`` returns).
 
     Returns:
         The summary per controller (also written, atomically, to ``out_dir/summary.json``).
     """
     base = scenario or canonical_scenario()
-    out = Path(out_dir)
+    out = check_output_folder(out_dir)
     summaries: dict[str, dict[str, Any]] = {}
     for name in controllers:
         run_scenario = with_controller(base, name)
         result = simulate(run_scenario, name, progress=progress(name) if progress else None, seed=seed)
-        folder = out / name
-        save_run(result, folder)
-        if after_run is not None:
-            after_run(name, run_scenario, result, folder)
+        with atomic_folder(out / name) as folder:  # each run's folder is replaced whole
+            save_run(result, folder)
+            if after_run is not None:
+                after_run(name, run_scenario, result, folder)
         summaries[name] = result.summary()
     text = (json.dumps(summaries, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)
