@@ -31,8 +31,13 @@ from previewctl.sim.schema import Timing
 
 
 def fails_with(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
-    """``previewctl argv`` exits 2 with exactly one line on stderr that contains ``message``."""
-    assert main(argv) == 2
+    """``previewctl argv`` exits 2 with exactly one line on stderr that contains ``message`` (argparse's usage
+    errors exit through ``SystemExit``)."""
+    try:
+        code = main(argv)
+    except SystemExit as exc:
+        code = exc.code  # type: ignore[assignment]
+    assert code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("previewctl: error: "), err
     assert message in err, err
@@ -216,3 +221,18 @@ def test_population_cap() -> None:
 def test_every_error_here_is_a_previewctl_error() -> None:
     for error in (ConfigurationError, ParameterError, RobotLoadError, SceneError):
         assert issubclass(error, PreviewctlError)
+
+
+# ------------------------------------------------------------------- found while reproducing the list
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["index", "--q", "0,0,0,0", "--time", "nan"], "t must be finite, got nan"),
+    (["map", "--target", "1.5,1.0", "--samples", "-5"], "samples must be an integer >= 1, got -5"),
+    (["map", "--target", "1.5,1.0", "--seed", "-1"], "argument --seed: must be an integer >= 0, got '-1'"),
+    (["reach-map", str(Path(__file__).parent.parent / "scenarios" / "planar_free.toml"), "--resolution", "0.001"],
+     "resolution_deg = 0.001 and steps = 50 make 52,876,946,880,102 grid nodes (720001 x 720001 cells x 2 "
+     "branches x 51 layers), more than 33,554,432: use a coarser resolution or fewer steps"),
+])
+def test_more_bad_options(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
+    fails_with(argv, message, capsys)

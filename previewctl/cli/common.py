@@ -39,6 +39,17 @@ def parse_vector(text: str, name: str) -> np.ndarray:
     return np.array(values)
 
 
+def seed_value(text: str) -> int:
+    """An argparse ``type``: a random seed, an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
 def finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 

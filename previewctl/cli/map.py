@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.cli.common import Commands, add_evaluation_options, parse_vector
+from previewctl.cli.common import Commands, add_evaluation_options, parse_vector, seed_value
 from previewctl.errors import PreviewctlError
 from previewctl.files import check_output_file
 from previewctl.index.amsi import IndexParams
@@ -43,7 +43,7 @@ def add_parser(commands: Commands) -> None:
     map_.add_argument("--resolution", type=float, default=1.0, help="grid step [deg] (default 1)")
     map_.add_argument("--top-k", type=int, default=4, help="number of peaks to report (default 4)")
     map_.add_argument("--samples", type=int, help="Halton samples for arms with more than two genes")
-    map_.add_argument("--seed", type=int, default=0, help="random shift of the samples (default 0)")
+    map_.add_argument("--seed", type=seed_value, default=0, help="random shift of the samples (default 0)")
     add_evaluation_options(map_)
     map_.set_defaults(func=cmd_map)
 

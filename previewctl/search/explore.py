@@ -141,6 +141,8 @@ def explore(
         ConfigurationError: a bad option or target, or more than :data:`MAX_CANDIDATES` candidates.
     """
     top_k = _check_options(resolution_deg, top_k, min_separation)
+    if samples is not None:
+        check_positive_int("samples", samples)  # also on a grid, which does not use it: a typo is still a typo
     red = redundancy if redundancy is not None else redundancy_map(robot)
     goal = parse_target(target, robot)
     reach_check(red, target, robot)
