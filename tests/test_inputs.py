@@ -236,3 +236,23 @@ def test_every_error_here_is_a_previewctl_error() -> None:
 ])
 def test_more_bad_options(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
     fails_with(argv, message, capsys)
+
+
+def test_huge_prismatic_values(tmp_path: Path) -> None:
+    """A slide with limits of +-1e9 m loads (sampling stays within |q| <= 1e6) and evaluates up to the cap."""
+    box = '<collision><geometry><box size="0.02 0.02 0.02"/></geometry></collision>'
+    joint = ('<joint name="{0}" type="{1}"><parent link="{2}"/><child link="{3}"/><origin xyz="{4}"/>'
+             '<axis xyz="{5}"/><limit lower="{6}" upper="{7}" effort="1" velocity="1"/></joint>')
+    path = tmp_path / "slide.urdf"
+    path.write_text("".join([
+        '<robot name="slide"><link name="base"/>', *(f'<link name="l{k}">{box}</link>' for k in (1, 2, 3)),
+        '<link name="hand"/>',
+        joint.format("slide", "prismatic", "base", "l1", "0 0 0.1", "1 0 0", -1e9, 1e9),
+        joint.format("j1", "revolute", "l1", "l2", "0 0 0.1", "0 0 1", -3, 3),
+        joint.format("j2", "revolute", "l2", "l3", "0.4 0 0", "0 1 0", -3, 3),
+        joint.format("j3", "revolute", "l3", "hand", "0.4 0 0", "0 1 0", -3, 3), "</robot>"]))
+    robot = previewctl.load_robot(path)
+    for value in (1e3, 9.9e5):
+        assert np.isfinite(previewctl.avoidance(robot, np.array([value, 0.3, 0.2, 0.1])).amsi)
+    with pytest.raises(ConfigurationError, match=re.escape("q[0, 0] = 2e+06 (joint 'slide') is out of range")):
+        previewctl.avoidance(robot, np.array([2e6, 0.3, 0.2, 0.1]))

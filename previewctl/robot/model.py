@@ -142,9 +142,11 @@ class Robot:
         return np.stack([pin.difference(self.model, neutral, q) for q in Q])
 
     def _finite_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Per-velocity-coordinate limits [rad or m] with missing (infinite) ones replaced by +-pi."""
+        """Per-velocity-coordinate limits [rad or m] with missing (infinite) ones replaced by +-pi, and none
+        beyond :data:`MAX_COORDINATE`."""
         lower, upper = self.joints.lower, self.joints.upper
-        return np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+        lower, upper = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+        return np.maximum(lower, -MAX_COORDINATE), np.minimum(upper, MAX_COORDINATE)
 
     def check_configurations(self, q: object) -> tuple[NDArray[np.float64], bool]:
         """Validate ``q`` of shape ``(nq,)`` or ``(B, nq)``.
