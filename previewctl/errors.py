@@ -49,3 +49,7 @@ class TrajectoryError(PreviewctlError, ValueError):
 
 class UnreachableTargetError(PreviewctlError, ValueError):
     """A hand target that no configuration of the arm reaches."""
+
+
+class OutputError(PreviewctlError, ValueError):
+    """An output file or folder that cannot be written (a missing parent, a folder where a file goes, ...)."""

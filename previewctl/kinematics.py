@@ -104,7 +104,7 @@ class FrameKinematics:
             frames[:, self._moved] = frames[:, self._moved] @ self._offset
         # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
         # matrix product for all frames of a configuration, then the support mask
-        J = np.array(joint_jacobians)
+        J = np.array(joint_jacobians).reshape(B, 6, model.nv)
         cross = np.zeros((B, K, 9))
         cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
         jacobians = np.empty((B, K, 6, model.nv))

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import ast
+import json
+import os
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import matplotlib
@@ -11,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pytest
 
-from previewctl.files import atomic_write, save_figure
+from previewctl.files import atomic_folder, atomic_write, atomic_write_bytes, remove_stale, save_figure
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path: Path) -> None:
@@ -107,3 +112,91 @@ def test_only_viz_imports_matplotlib_and_pillow() -> None:
                 continue
             offenders += [f"{name}:{node.lineno} {m}" for m in modules if m.split(".")[0] in ("matplotlib", "PIL")]
     assert not offenders, "only previewctl/viz/ draws: " + ", ".join(offenders)
+
+
+# ------------------------------------------------------------------------------ whole folders
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def dead_pid() -> int:
+    """The id of a process that has ended."""
+    child = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                           check=True)
+    return int(child.stdout)
+
+
+def old_folder(tmp_path: Path) -> Path:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "summary.json").write_text("old")
+    (out / "strobe.png").write_text("old figure")
+    return out
+
+
+def test_folder_is_replaced_whole(tmp_path: Path) -> None:
+    out = old_folder(tmp_path)
+    with atomic_folder(out) as folder:
+        (folder / "summary.json").write_text("new")
+        assert (out / "summary.json").read_text() == "old"  # the old folder stays until the end
+    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]  # no old figure mixed in
+    assert (out / "summary.json").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_failed_folder_keeps_the_old_one_and_leaves_no_temporary(tmp_path: Path) -> None:
+    out = old_folder(tmp_path)
+    with pytest.raises(RuntimeError, match="disk full"), atomic_folder(out) as folder:
+        (folder / "summary.json").write_text("new")
+        raise RuntimeError("disk full")
+    assert sorted(p.name for p in out.iterdir()) == ["strobe.png", "summary.json"]
+    assert (out / "summary.json").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_temporaries_of_dead_processes_are_removed_and_living_ones_kept(tmp_path: Path) -> None:
+    out, dead, alive = tmp_path / "map.png", dead_pid(), os.getpid()
+    stale = [tmp_path / f".map.png.{dead}.abc123.tmp", tmp_path / f".strobe.png.{dead}.x.tmp"]
+    (tmp_path / f".map.png.{dead}.folder1.tmp").mkdir()
+    living = tmp_path / f".map.png.{alive}.busy.tmp"
+    for path in (*stale, living):
+        path.write_text("partial")
+    atomic_write_bytes(out, b"png")
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == [living.name, stale[1].name, "map.png"]  # only map.png's dead temporaries go
+
+
+def test_an_old_folder_set_aside_by_a_killed_swap_is_put_back(tmp_path: Path) -> None:
+    aside = tmp_path / f".run.{dead_pid()}.q1w2e3.old"
+    aside.mkdir()
+    (aside / "summary.json").write_text("old")
+    remove_stale(tmp_path / "run")
+    assert (tmp_path / "run" / "summary.json").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_run_killed_while_writing_leaves_the_old_folder_whole(tmp_path: Path) -> None:
+    """SIGKILL a real ``previewctl run`` once its new log is written and its figures are not: the old folder
+    is untouched, and the next run removes the killed run's temporary folder."""
+    scenario = ROOT / "scenarios" / "planar_free.toml"  # gif = true: seconds of figure writing to kill into
+    out = old_folder(tmp_path)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "previewctl", "run", str(scenario), "--out", str(out)]
+    child = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    try:
+        while not list(tmp_path.glob(f".run.{child.pid}.*.tmp/run.npz")):
+            assert child.poll() is None and time.monotonic() < deadline, "the run ended before it was killed"
+            time.sleep(0.005)
+    finally:
+        child.kill()
+        child.wait()
+    assert sorted(p.name for p in out.iterdir()) == ["strobe.png", "summary.json"]
+    assert (out / "summary.json").read_text() == "old"
+    (killed,) = [p for p in tmp_path.iterdir() if p.name != "run"]
+    assert killed.name.startswith(f".run.{child.pid}.") and (killed / "run.npz").is_file()
+    done = subprocess.run([*argv, "--no-gif", "--controller", "none"], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert json.loads((out / "summary.json").read_text())["controller"] == "none"
+    assert not (out / "run.gif").exists() and (out / "run.npz").is_file()

@@ -34,7 +34,7 @@ from previewctl import (
     load_scene,
 )
 from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
-from previewctl.robot.model import Robot
+from previewctl.robot.model import Robot, Task
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -172,17 +172,21 @@ def test_capsule_geometry_covers_the_meshes(panda_mesh: Robot) -> None:
         assert np.linalg.norm(gap, axis=1).max() <= capsule.geometry.radius + 1e-9
 
 
-def test_task_choices() -> None:
-    pose = load_robot("planar4", task="pose")
-    assert pose.task == "pose"
-    assert pose.planar is None
-    result = avoidance(pose, np.array([0.1, 0.2, 0.3, 0.4]))
-    assert result.J_task.shape == (6, 4)
-    assert result.J_points.shape == (3, 3, 4)
-    np.testing.assert_allclose(result.J_task[[2, 3, 4]], 0.0, atol=1e-12)  # z, wx, wy: out of the plane
-    np.testing.assert_allclose(result.J_task[5], 1.0)  # wz: every joint turns the hand
-    position = load_robot("planar4", task="position")
-    assert avoidance(position, np.zeros(4)).J_task.shape == (3, 4)
+def test_task_choices(ur5: Robot) -> None:
+    pose = load_robot("ur5", task="pose")
+    assert pose.task == "pose" and ur5.task == "position"
+    q = np.array([0.1, -1.2, 1.5, -0.8, 1.1, 0.3])
+    J_pose = avoidance(pose, q).J_task
+    assert J_pose.shape == (6, 6)
+    np.testing.assert_allclose(J_pose[:3], avoidance(ur5, q).J_task, atol=1e-12)  # same position rows
+
+
+@pytest.mark.parametrize(("task", "rows", "rank"), [("pose", 6, 3), ("position", 3, 2)])
+def test_task_the_hand_cannot_follow_is_refused(task: Task, rows: int, rank: int) -> None:
+    """A planar arm moves its hand in x, y and turns it about z: z and the tilts are out of reach."""
+    with pytest.raises(RobotLoadError, match=rf"robot 'planar4' cannot follow task '{task}': its hand moves along "
+                       rf"only {rank} of the task's {rows} directions; valid tasks for it: \['planar'\]"):
+        load_robot("planar4", task=task)
 
 
 # ------------------------------------------------------------------------------ robot errors
@@ -279,7 +283,7 @@ def test_lock_with_explicit_tip() -> None:
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, np.zeros(3))
     np.testing.assert_allclose(data.oMf[robot.tip_frame_id].translation, [3.0, 0.0, 0.0], atol=1e-12)
-    with pytest.raises(RobotLoadError, match="every joint was locked"):
+    with pytest.raises(RobotLoadError, match="no joint is left to move once the joints joint1, joint2, joint3, joint4"):
         load_robot("planar4", lock=["joint1", "joint2", "joint3", "joint4"])
 
 

@@ -258,7 +258,7 @@ def test_newton_map_with_continuous_joints(tmp_path: Path) -> None:
     text = (shipped_robots_dir() / "planar4.urdf").read_text().replace('type="revolute"', 'type="continuous"')
     urdf = tmp_path / "continuous.urdf"
     urdf.write_text(text)
-    robot = load_robot(urdf)
+    robot = load_robot(urdf, task="planar")  # in the plane: "position" is refused (the hand cannot leave it)
     assert robot.nq == 8 and robot.nv == 4
     red = redundancy_map(robot)
     assert isinstance(red, NewtonRedundancy) and red.periodic.all()

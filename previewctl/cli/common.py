@@ -39,6 +39,17 @@ def parse_vector(text: str, name: str) -> np.ndarray:
     return np.array(values)
 
 
+def seed_value(text: str) -> int:
+    """An argparse ``type``: a random seed, an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
 def finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
@@ -64,7 +75,7 @@ class ProgressBar:
         self._fraction, self._t, self._updated = 0.0, 0.0, False
         self._start = time.perf_counter()
         self._bar = tqdm(total=1.0, desc=label, bar_format=self.BAR_FORMAT, ascii=".#", file=self._file,
-                         mininterval=0.1, leave=True, postfix=self._time(0.0), disable=not _is_terminal(self._file))
+                         mininterval=0.1, leave=True, postfix=self._time(0.0), disable=not is_terminal(self._file))
 
     @staticmethod
     def _time(t: float) -> str:
@@ -87,7 +98,8 @@ class ProgressBar:
             self._file.flush()
 
 
-def _is_terminal(stream: TextIO) -> bool:
+def is_terminal(stream: TextIO) -> bool:
+    """Whether ``stream`` is a terminal (progress bars are drawn only there)."""
     isatty = getattr(stream, "isatty", None)
     return bool(isatty is not None and isatty())
 

@@ -9,12 +9,15 @@ from typing import Any
 import numpy as np
 
 from previewctl.cli.common import Commands, add_evaluation_options, finite_or_none, parse_vector
+from previewctl.errors import ConfigurationError
 from previewctl.index.amsi import IndexParams, avoidance
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.potential import Potential
 from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
 from previewctl.scene.shapes import Scene
+from previewctl.types import Array
 
 
 def add_parser(commands: Commands) -> None:
@@ -27,8 +30,10 @@ def add_parser(commands: Commands) -> None:
     )
     index.add_argument("--robot", default="planar4",
                        help="URDF path, shipped or example-robot-data name (default planar4)")
-    index.add_argument("--q", required=True, help="configuration, comma-separated [rad], e.g. 1.2,1.8,-2.9,1.5")
-    index.add_argument("--degrees", action="store_true", help="read --q in degrees")
+    index.add_argument("--q", required=True,
+                       help="configuration, comma-separated [rad], e.g. 1.2,1.8,-2.9,1.5: one angle per joint, or the "
+                       "nq entries of q (a continuous joint's cos, sin); within the joint limits")
+    index.add_argument("--degrees", action="store_true", help="read the joint angles of --q in degrees")
     add_evaluation_options(index)
     index.add_argument("--json", action="store_true", help="print JSON")
     index.set_defaults(func=cmd_index)
@@ -37,9 +42,7 @@ def add_parser(commands: Commands) -> None:
 def cmd_index(args: argparse.Namespace) -> int:
     """Print the per-point avoidance table and AMSIP for one configuration."""
     robot = load_robot(args.robot, geometry=args.geometry)
-    q = parse_vector(args.q, "q")
-    if args.degrees:
-        q = np.radians(q)
+    q = _configuration(robot, parse_vector(args.q, "q"), args.degrees)
     scene = load_scene(args.scene) if args.scene else Scene()
     index = IndexParams(length_unit=args.length_unit)
     potential = Potential(influence_distance=args.influence)
@@ -74,7 +77,8 @@ def cmd_index(args: argparse.Namespace) -> int:
         print(json.dumps(report, indent=2))
         return 0
     hand = np.round(ev.tip_position[0], 4)
-    print(f"robot {robot.name}  q = {np.array2string(q, precision=4)} [rad]  hand at {hand} [m]")
+    angles = np.array2string(robot.angles_of(q[None])[0], precision=4)
+    print(f"robot {robot.name}  joint angles = {angles} [rad]  hand at {hand} [m]")
     print(f"{'control point':<22}{'rank':>5}{'p':>3}  {'singular values [m/rad]':<30}{'V_i [m^p]':>12}")
     for row in report["control_points"]:
         sv = ", ".join(f"{s:.4f}" for s in row["singular_values"])
@@ -87,3 +91,22 @@ def cmd_index(args: argparse.Namespace) -> int:
     print(f"AMSI E = {report['amsi']:.2f} (unit {unit})   U = {report['U']:.2f}   S = {report['S']:.2f}"
           f"   {'COLLISION' if report['collision'] else 'collision-free'}")
     return 0
+
+
+def _configuration(robot: Robot, values: Array, degrees: bool) -> Array:
+    """``q`` ``(nq,)`` from one angle per joint [rad, or deg] or from the ``nq`` entries; checked against the limits.
+
+    Raises:
+        ConfigurationError: a wrong count, a bad (cos, sin) pair, or a joint outside its limits.
+    """
+    if len(values) == robot.nv:
+        q = robot.configuration_from_angles(np.radians(values) if degrees else values)
+    elif len(values) == robot.nq and not degrees:
+        q = values
+    else:
+        entries = "" if robot.nq == robot.nv or degrees else f" or the {robot.nq} entries of q"
+        raise ConfigurationError(f"--q has {len(values)} values; robot {robot.name!r} needs one angle per joint "
+                                 f"({robot.nv}: {', '.join(robot.joint_names)}){entries}")
+    robot.check_configurations(q)
+    robot.check_limits(q)
+    return q

@@ -9,8 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.cli.common import Commands, add_evaluation_options, parse_vector
+from previewctl.cli.common import Commands, add_evaluation_options, parse_vector, seed_value
 from previewctl.errors import PreviewctlError
+from previewctl.files import check_output_file
 from previewctl.index.amsi import IndexParams
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.potential import Potential
@@ -42,7 +43,7 @@ def add_parser(commands: Commands) -> None:
     map_.add_argument("--resolution", type=float, default=1.0, help="grid step [deg] (default 1)")
     map_.add_argument("--top-k", type=int, default=4, help="number of peaks to report (default 4)")
     map_.add_argument("--samples", type=int, help="Halton samples for arms with more than two genes")
-    map_.add_argument("--seed", type=int, default=0, help="random shift of the samples (default 0)")
+    map_.add_argument("--seed", type=seed_value, default=0, help="random shift of the samples (default 0)")
     add_evaluation_options(map_)
     map_.set_defaults(func=cmd_map)
 
@@ -52,6 +53,8 @@ def cmd_map(args: argparse.Namespace) -> int:
     robot, evaluator, target = _inputs(args)
     if args.surface and not args.out:
         raise PreviewctlError("--surface needs --out FILE.png (the surface goes to FILE_surface.png)")
+    if args.out:
+        check_output_file(args.out)
     landscape = explore(robot, evaluator, target, args.time, resolution_deg=args.resolution, top_k=args.top_k,
                         samples=args.samples, rng=np.random.default_rng(args.seed))
     written = _write_figures(args, landscape, robot, evaluator.scene) if args.out else []
@@ -63,8 +66,8 @@ def cmd_map(args: argparse.Namespace) -> int:
         "candidates": int(landscape.S.size),
         "reachable_fraction": float(landscape.reachable.mean()),
         "collision_free_fraction": float((landscape.S >= 0).mean()),
-        "best": _row(landscape.best),
-        "peaks": [_row(p) for p in landscape.peaks],
+        "best": _row(landscape.best, robot),
+        "peaks": [_row(p, robot) for p in landscape.peaks],
         "files": written,
     }
     if args.json:
@@ -105,13 +108,14 @@ def _write_figures(args: argparse.Namespace, landscape: Landscape, robot: Robot,
     return written
 
 
-def _row(candidate: Candidate) -> dict[str, Any]:
-    """A candidate for the report: genes in ``[0, 360)`` [deg], branch, ``q`` [rad] and [deg], ``S``."""
+def _row(candidate: Candidate, robot: Robot) -> dict[str, Any]:
+    """A candidate for the report: genes in ``[0, 360)`` [deg], branch, ``q`` (the ``nq`` entries), the joint
+    angles in [deg] (a continuous joint's angle, not its cos and sin), ``S``."""
     return {
         "genes_deg": [round(float(v), 4) for v in np.degrees(np.mod(candidate.genes, FULL_TURN))],
         "branch": candidate.branch,
         "q": [float(v) for v in candidate.q],
-        "q_deg": [round(float(v), 4) for v in np.degrees(candidate.q)],
+        "q_deg": [round(float(v), 4) for v in np.degrees(robot.angles_of(np.asarray(candidate.q)[None])[0])],
         "S": candidate.S,
     }
 

@@ -11,7 +11,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from previewctl.cli.common import Commands
+from previewctl.cli.common import Commands, seed_value
 from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
@@ -37,7 +37,7 @@ def add_parser(commands: Commands) -> None:
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")
     paper.add_argument("--executions", help="comma-separated subset of qp,pseudoinverse (default: both)")
     paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
-    paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    paper.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
     paper.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                        help="runs in parallel, one process each (default: the number of cores)")

@@ -1,4 +1,4 @@
-"""``previewctl robots``: list the robot names that load."""
+"""``previewctl robots``: list the robots that load as arms, and why the others do not."""
 
 from __future__ import annotations
 
@@ -6,40 +6,49 @@ import argparse
 import json
 import sys
 
-from previewctl.cli.common import Commands
+from tqdm import tqdm
+
+from previewctl.cli.common import Commands, is_terminal
+from previewctl.errors import PreviewctlError
 from previewctl.robot.load import example_robot_names, load_robot, shipped_robot_names
+
+FEATURED = ("panda", "ur5", "ur3", "ur10", "kinova", "xarm7", "z1")
+"""The example-robot-data arms listed without ``--all``."""
 
 
 def add_parser(commands: Commands) -> None:
     """The ``robots`` subcommand and its options."""
-    robots = commands.add_parser("robots", help="list the robot names that load")
-    robots.add_argument("--all", action="store_true", help="try every example-robot-data name (slow)")
+    robots = commands.add_parser("robots", help="list the robots that load as arms")
+    robots.add_argument("--all", action="store_true", help="try every example-robot-data name (about 40 s)")
     robots.add_argument("--json", action="store_true", help="print JSON")
-    robots.add_argument("--verbose", action="store_true", help="say why a robot does not load")
+    robots.add_argument("--verbose", action="store_true", help="also list the robots that are not arms, and why")
     robots.set_defaults(func=cmd_robots)
 
 
 def cmd_robots(args: argparse.Namespace) -> int:
-    """List the robot names that load."""
-    names = list(shipped_robot_names())
-    if args.all:
-        names += list(example_robot_names())
-    else:
-        names += ["panda", "ur5", "ur3", "ur10", "kinova", "xarm7", "z1"]
-    rows = []
-    for name in names:
+    """List the robots that load as arms (with ``--verbose``, the others with the reason)."""
+    names = [*shipped_robot_names(), *(example_robot_names() if args.all else FEATURED)]
+    rows, refused = [], []
+    for name in tqdm(names, desc="loading", unit="robot", leave=False, disable=not is_terminal(sys.stderr)):
         try:
             robot = load_robot(name)
-        except Exception as exc:  # listing: a robot that fails to load is reported, not fatal
-            if args.verbose:
-                sys.stderr.write(f"{name}: does not load ({exc})\n")
+        except PreviewctlError as exc:
+            refused.append((name, str(exc)))
             continue
         rows.append((name, robot.nv, robot.task, robot.tip_frame, len(robot.control_points)))
     if args.json:
         keys = ("name", "dof", "task", "tip", "control_points")
-        print(json.dumps([dict(zip(keys, r, strict=True)) for r in rows], indent=2))
-    else:
-        print(f"{'robot':<16}{'dof':>4}  {'task':<9}{'tip frame':<28}control points")
-        for name, nv, task, tip, k in rows:
-            print(f"{name:<16}{nv:>4}  {task:<9}{tip:<28}{k}")
+        report = {"arms": [dict(zip(keys, r, strict=True)) for r in rows],
+                  "not_arms": [{"name": n, "reason": why} for n, why in refused]}
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"{'robot':<28}{'dof':>4}  {'task':<9}{'tip frame':<28}control points")
+    for name, nv, task, tip, k in rows:
+        print(f"{name:<28}{nv:>4}  {task:<9}{tip:<28}{k}")
+    if refused and args.verbose:
+        print(f"\nnot arms ({len(refused)}):")
+        for name, why in refused:
+            print(f"{name:<28}{why}")
+    elif refused:
+        print(f"\n{len(refused)} more do not load as arms ({', '.join(n for n, _ in refused)}); --verbose says why")
     return 0

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from previewctl.cli.common import Commands, ProgressBar
+from previewctl.cli.common import Commands, ProgressBar, seed_value
 from previewctl.control.params import CONTROLLER_NAMES
+from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
@@ -26,7 +27,7 @@ def add_parser(commands: Commands) -> None:
                      help="override the scenario's controller ('oracle': non-causal, follows the reachability "
                      "DP's best motion, see reach-map)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
-    run.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    run.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     run.add_argument("--continue-after-collision", action="store_true",
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
@@ -37,7 +38,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
     scenario = load_scenario(args.scenario)
     name = args.controller or scenario.controller.name
-    out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"
+    out = check_output_folder(args.out or Path("out") / f"{scenario.name}-{name}")
     bar = ProgressBar()
     try:
         result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
@@ -45,8 +46,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     summary = result.summary()
-    npz_path, json_path = save_run(result, out)
-    figures = make_figures(result, scenario, out, gif=False if args.no_gif else None)
+    gif = False if args.no_gif else None
+    with atomic_folder(out) as folder:  # the old folder stays whole until the new one is
+        written = [*save_run(result, folder), *make_figures(result, scenario, folder, gif=gif)]
+    npz_path, json_path, *figures = [out / p.relative_to(folder) for p in written]
 
     def metre(value: float | None) -> str:
         return "-" if value is None else f"{value * 1e3:.2f} mm"

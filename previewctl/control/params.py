@@ -89,7 +89,8 @@ class ControllerParams(Checked):
         velocity_scale: fraction of the URDF joint speed limits that the controller may use, in (0, 1].
         preview_time: ``t̃`` [s], the spacing of the preview times ``t + i t̃``.
         weights: ``k_i`` of eq. 21 (``multi``; ``single`` uses ``k_1 = 1``); ``0 < k_i < 1``, ``Σ = 1``.
-        previews: number of future nodes of the ``reach`` mode.
+        previews: number of preview times of ``multi`` and ``reach``: always ``len(weights)`` (one per ``k_i``);
+            ``None`` (the default) or that number, which is then checked.
         population: GA population per imaginary arm.
         elite: GA individuals copied unchanged to the next generation.
         top_k: distinct peaks the GA keeps.
@@ -120,7 +121,7 @@ class ControllerParams(Checked):
     velocity_scale: Annotated[Finite, interval(0, 1, "(]")] = 1.0
     preview_time: Positive = 1.0
     weights: PreviewWeights = PAPER_WEIGHTS
-    previews: Count = 3
+    previews: Count | None = None
     population: Population = 64
     elite: Count = 2
     top_k: Count = 4
@@ -140,8 +141,12 @@ class ControllerParams(Checked):
     limit_margin: Positive = 0.1
 
     def check(self) -> None:
-        """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
-        ``elite + top_k < population``), and ``safety_distance < influence_distance``."""
+        """``previews`` matches ``weights``, ``safety_distance < influence_distance``, and the GA settings
+        together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option, ``elite + top_k < population``)."""
+        if self.previews is not None and self.previews != len(self.weights):
+            raise ParameterError(f"previews = {self.previews} but weights = {list(self.weights)} has "
+                                 f"{len(self.weights)}: multi and reach use one preview per weight k_i; give "
+                                 f"{self.previews} weights or leave previews out")
         if self.safety_distance >= self.influence_distance:
             raise ParameterError(
                 f"safety_distance = {self.safety_distance} [m] must be smaller than influence_distance = "

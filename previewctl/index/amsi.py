@@ -4,9 +4,11 @@ For each configuration, Pinocchio computes the kinematics once (joint placements
 the task Jacobian ``J_n`` and the control-point Jacobians ``J_i`` are assembled from it for the whole
 batch (:class:`FrameKinematics`), then the linear algebra runs batched over the population too:
 
-* ``N = I - J_n^+ J_n`` (eq. 3) with ``J_n^+ = J_n^T (J_n J_n^T)^+``; singular values below
-  ``max(rank_tolerance, ~1e-7) * sigma_max(J_n)`` count as zero (``rank_tolerance`` defaults to
-  ``1e-9``; ``1e-7`` is what the m x m Gram matrix resolves, see :func:`gram_pseudo_inverse`).
+* ``N = I - J_n^+ J_n`` (eq. 3) from the SVD of ``J_n``: singular values below
+  ``rank_tolerance * sigma_max(J_n)`` count as zero (``rank_tolerance`` defaults to ``1e-9``), and
+  ``|J_n N| <~ 1e-14 sigma_max`` holds at every configuration (:func:`null_space_projector`). The
+  AMSI-only fast path (:func:`amsi_from_kinematics`) uses the m x m Gram matrix instead, which resolves
+  singular values down to about ``1e-7 sigma_max`` (:func:`gram_pseudo_inverse`).
 * ``M_i = J_i N`` (eq. 6), its singular values ``sigma_i1 >= sigma_i2 >= ...``.
 * ``V_i = c_p * sigma_i1 ... sigma_ip`` (eqs. 13-15) with ``c_p`` the volume of the unit p-ball
   (eq. 14) and ``p`` the point's *structural* rank (its rank at generic configurations), so that
@@ -147,11 +149,16 @@ def _eigh_pseudo_inverse(G: Array, cutoff: float) -> Array:
 def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
     """``N = I - J^+ J`` for ``J`` of shape ``(..., m, n)``; returns ``(..., n, n)``.
 
-    ``J^+ = J^T (J J^T)^+`` (:func:`gram_pseudo_inverse`, an m x m problem instead of an SVD of J,
-    which also states the rank threshold).
+    From the SVD ``J = U S V^T``: ``N = I - V_r V_r^T`` with the ``r`` singular values above
+    ``rank_tolerance * sigma_max`` (a relative cutoff). Exact to rounding, ``|J N| <~ 10 eps sigma_max``,
+    also near a singularity, where the Gram route ``J^T (J J^T)^+ J`` loses ``eps cond(J)^2``.
     """
-    JT = np.ascontiguousarray(np.swapaxes(J, -1, -2))
-    return np.eye(J.shape[-1]) - JT @ gram_pseudo_inverse(J, rank_tolerance) @ J
+    n = J.shape[-1]
+    if J.size == 0:
+        return np.broadcast_to(np.eye(n), (*J.shape[:-2], n, n)).copy()
+    _, s, Vt = np.linalg.svd(J, full_matrices=False)
+    V_r = Vt * (s > rank_tolerance * s[..., :1])[..., None]
+    return np.eye(n) - np.swapaxes(V_r, -1, -2) @ V_r
 
 
 def elementary_symmetric(G: Array, p: int) -> Array:

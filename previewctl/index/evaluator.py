@@ -35,7 +35,7 @@ from previewctl.scene.clearance import Clearance
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array
-from previewctl.validation import validate
+from previewctl.validation import real_scalar, validate
 
 Method = Literal["auto", "planar", "general"]
 
@@ -122,8 +122,14 @@ class Evaluator:
         return possible and self.method != "general"
 
     def __call__(self, q: object, t: float = 0.0) -> Evaluation:
-        """AMSIP of a batch ``(B, nq)`` (or one ``(nq,)``, returned with ``B = 1``) at time ``t`` [s]."""
+        """AMSIP of a batch ``(B, nq)`` (or one ``(nq,)``, returned with ``B = 1``) at time ``t`` [s].
+
+        Raises:
+            ConfigurationError: a bad ``q``.
+            ParameterError: ``t`` not a finite number.
+        """
         Q, _ = self.robot.check_configurations(q)
+        t = real_scalar(t, "t", ParameterError)
         kernels = self._planar_kernels(t) if self.method != "general" else None
         if self.method == "planar" and kernels is None:
             self.uses_planar_path(t)  # raises the explanatory error

@@ -18,7 +18,7 @@ from previewctl.robot.model import Geometry
 def mesh_exists(filename: str, urdf_dir: Path, dirs: Sequence[str]) -> bool:
     """Whether a URDF mesh reference resolves to a file."""
     if filename.startswith("package://"):
-        relative = filename[len("package://") :]
+        relative = filename[len("package://") :].lstrip("/")  # "package:///pkg/..." names the same file
         return any((Path(d) / relative).is_file() for d in dirs)
     if filename.startswith("file://"):
         filename = filename[len("file://") :]

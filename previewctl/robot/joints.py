@@ -57,6 +57,7 @@ class JointFacts:
         q_joint: ``(nq,)`` the Pinocchio joint id of each configuration entry.
         vector_space: every joint is a 1-dof revolute or prismatic one: ``q`` and the coordinates
             coincide and ``pin.integrate`` is plain addition.
+        unit_pairs: ``(P, 2)`` the configuration entries of each continuous joint's (cos, sin) pair.
     """
 
     revolute: NDArray[np.bool_]
@@ -69,6 +70,7 @@ class JointFacts:
     q_index: NDArray[np.int_]
     q_joint: NDArray[np.int_]
     vector_space: bool
+    unit_pairs: NDArray[np.int_]
 
     @classmethod
     def of(cls, model: pin.Model) -> JointFacts:
@@ -78,7 +80,7 @@ class JointFacts:
         lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         q_index, q_joint = np.full(nv, -1, dtype=int), np.zeros(model.nq, dtype=int)
         q_lower, q_upper = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
-        vector_space = True
+        vector_space, pairs = True, []
         for j in range(1, model.njoints):
             joint = model.joints[j]
             kind = joint.shortname()
@@ -88,6 +90,8 @@ class JointFacts:
             vector_space &= joint.nq == joint.nv == 1 and kind.startswith(("JointModelR", "JointModelP"))
             if joint.nq != joint.nv:
                 continuous[v] = True
+                if joint.nq == 2:
+                    pairs.append((joint.idx_q, joint.idx_q + 1))
                 continue
             q_index[v] = np.arange(joint.idx_q, joint.idx_q + joint.nq)
             lower[v], upper[v] = q_lower[q], q_upper[q]
@@ -105,4 +109,5 @@ class JointFacts:
             q_index=_frozen(q_index),
             q_joint=_frozen(q_joint),
             vector_space=bool(vector_space),
+            unit_pairs=_frozen(np.array(pairs, dtype=int).reshape(-1, 2)),
         )

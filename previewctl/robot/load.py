@@ -27,7 +27,8 @@ import contextlib
 import io
 import os
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections import Counter
+from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Literal
@@ -39,6 +40,7 @@ import pinocchio as pin
 from previewctl.errors import RobotLoadError, UnknownNameError
 from previewctl.index.amsi import avoidance
 from previewctl.planar.chain import PlanarChain
+from previewctl.robot.chain import HandFrames, hand_frames, split_joints
 from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepare_geometry, select_guarded_links
 from previewctl.robot.model import GEOMETRY_CHOICES, TASK_ROWS, Geometry, Robot, Task
 
@@ -102,30 +104,44 @@ def load_robot(
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
     name, model, collision = _load_source(source, package_dirs)
-    model, collision = _reduce(name, model, collision, lock)
-    tip_frame = tip if tip is not None else _default_tip(model)
+    model, collision_model, hints = _reduce(name, model, collision, lock)
+    tip_frame = tip if tip is not None else _default_tip(model, hints)
     if not model.existFrame(tip_frame):
         raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
-    collision = prepare_geometry(collision, geometry)
+    try:
+        collision_model = prepare_geometry(collision_model, geometry)
+    except RuntimeError as exc:  # Coal: e.g. a degenerate mesh with no convex hull
+        raise RobotLoadError(f"robot {name!r}: its collision geometry cannot be prepared as {geometry!r}: "
+                             f"{' '.join(str(exc).split())[:200]}") from exc
     planar_ok = _is_planar(model)
     chosen_task: Task = task if task is not None else ("planar" if planar_ok else "position")
     rows = TASK_ROWS["planar"] if chosen_task == "planar" else TASK_ROWS["position"]
     points = _control_points(model, tip_frame, control_points, rows)
-    links = select_guarded_links(model, collision, tip_frame, guarded_links)
-    collision = keep_links(collision, model, links)
-    robot = Robot(name, model, collision, tip_frame, chosen_task, points, links, (), None)
+    if not points:
+        raise RobotLoadError(f"robot {name!r} has no control point: no joint origin between the base and the hand "
+                             f"{tip_frame!r} moves apart from it (the avoidance index needs one); name them with "
+                             f"control_points=[...] or choose another tip")
+    links = select_guarded_links(model, collision_model, tip_frame, guarded_links)
+    collision_model = keep_links(collision_model, model, links)
+    robot = Robot(name, model, collision_model, tip_frame, chosen_task, points, links, (), None)
     ranks = _structural_ranks(robot)
     planar = _planar_chain(robot) if chosen_task == "planar" and planar_ok else None
-    return Robot(name, model, collision, tip_frame, chosen_task, points, links, ranks, planar)
+    return Robot(name, model, collision_model, tip_frame, chosen_task, points, links, ranks, planar)
 
 
 # --------------------------------------------------------------------------------------- loading
 
 
+Collision = Callable[[pin.Model], pin.GeometryModel]
+"""Builds the full collision model for the full kinematic model (only once the arm has been accepted)."""
+
+
 def _load_source(
     source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
-) -> tuple[str, pin.Model, pin.GeometryModel]:
-    """Resolve ``source`` to (name, full model, full collision model)."""
+) -> tuple[str, pin.Model, Collision]:
+    """Resolve ``source`` to (name, full kinematic model, its collision-model builder)."""
+    if not isinstance(source, (str, os.PathLike)):
+        raise RobotLoadError(f"robot source must be a URDF path or a robot name (a string), got {source!r}")
     text = os.fspath(source)
     shipped = shipped_robots_dir() / f"{text}.urdf"
     if shipped.is_file():
@@ -138,16 +154,37 @@ def _load_source(
     known = example_robot_names()
     if text not in known:
         raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
-    import example_robot_data
-
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        wrapper = example_robot_data.load(text)
-    return text, wrapper.model, wrapper.collision_model
+    return text, *_load_example_robot(text)
 
 
-def _load_urdf(
-    path: Path, package_dirs: Sequence[str | os.PathLike[str]]
-) -> tuple[pin.Model, pin.GeometryModel]:
+def _load_example_robot(name: str) -> tuple[pin.Model, Collision]:
+    """An example-robot-data robot: straight from its URDF when its loader does nothing else (no visual
+    meshes, no SRDF: 2-20x faster), else through the loader. A floating base its loader adds is left out:
+    it would be locked at the identity anyway."""
+    from example_robot_data import robots_loader
+
+    loader = robots_loader.ROBOTS[name]
+    if loader.urdf_filename and "__init__" not in vars(loader):
+        relative = os.path.join(loader.path, loader.urdf_subpath, loader.urdf_filename)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                root = robots_loader.getModelPath(relative)
+        except OSError as exc:
+            raise RobotLoadError(f"example-robot-data could not find {name!r}: {exc}") from exc
+        model, collision = _load_urdf(Path(root) / relative, [Path(root).parent.parent])
+        if loader.free_flyer and model.nv == 0:
+            raise RobotLoadError(f"robot {name!r} is not an arm: its only joint is a floating base (a drone or a "
+                                 "mobile base)")
+        return model, collision
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            wrapper = robots_loader.load(name)
+    except (ImportError, ValueError, RuntimeError, OSError, AssertionError) as exc:
+        raise RobotLoadError(f"example-robot-data could not load {name!r}: {exc}") from exc
+    return wrapper.model, lambda model: wrapper.collision_model
+
+
+def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tuple[pin.Model, Collision]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
     try:
         root = ET.parse(path).getroot()
@@ -162,9 +199,15 @@ def _load_urdf(
             raise RobotLoadError(f"URDF file {str(path)!r}: mesh file {filename!r} not found (searched {dirs})")
     try:
         model = pin.buildModelFromUrdf(str(path))
-        collision = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
     except (ValueError, RuntimeError) as exc:
         raise RobotLoadError(f"URDF file {str(path)!r} could not be loaded: {exc}") from exc
+
+    def collision(full: pin.Model) -> pin.GeometryModel:
+        try:
+            return pin.buildGeomFromUrdf(full, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
+        except (ValueError, RuntimeError) as exc:
+            raise RobotLoadError(f"URDF file {str(path)!r}: its collision geometry could not be loaded: {exc}") from exc
+
     return model, collision
 
 
@@ -172,58 +215,50 @@ def _load_urdf(
 
 
 def _reduce(
-    name: str, model: pin.Model, collision: pin.GeometryModel, lock: Sequence[str] | None
-) -> tuple[pin.Model, pin.GeometryModel]:
-    """The model with the ``lock`` joints (default: every joint off the default chain) locked at neutral.
+    name: str, model: pin.Model, collision: Collision, lock: Sequence[str] | None
+) -> tuple[pin.Model, pin.GeometryModel, HandFrames]:
+    """The arm: the model with its floating base and ``lock`` joints (default: the end-effector joints, see
+    :mod:`previewctl.robot.chain`) locked at neutral, and the frames that guide the default hand.
 
     Raises:
-        RobotLoadError: no movable joint before or after locking.
+        RobotLoadError: no movable joint, not a serial arm, or a model Pinocchio cannot reduce.
         UnknownNameError: a ``lock`` name that is not a joint.
     """
     if model.nv == 0:
         raise RobotLoadError(f"robot {name!r} has no movable joint")
-    chain = _default_chain(model) if lock is None else _chain_without(model, lock)
-    locked = [j for j in range(1, model.njoints) if j not in chain]
-    if lock is not None:
-        for joint_name in lock:
-            if not model.existJointName(joint_name):
-                raise UnknownNameError("joint", joint_name, model.names[1:])
-    if locked:
-        model, collision = pin.buildReducedModel(model, collision, locked, pin.neutral(model))
-    if model.nv == 0:
-        raise RobotLoadError(f"robot {name!r}: every joint was locked ({', '.join(map(str, lock or ()))})")
-    return model, collision
+    _distinct_frame_names(model)
+    for joint_name in lock or ():
+        if not model.existJointName(joint_name):
+            raise UnknownNameError("joint", joint_name, model.names[1:])
+    split = split_joints(name, model, lock)
+    frames = hand_frames(model, split)
+    geometry = collision(model)
+    if split.locked:
+        try:
+            model, geometry = pin.buildReducedModel(model, geometry, list(split.locked), pin.neutral(model))
+        except (ValueError, RuntimeError) as exc:
+            raise RobotLoadError(f"robot {name!r}: locking joints {list(split.locked)} failed: {exc}") from exc
+    return model, geometry, frames
 
 
-def _height(model: pin.Model, j: int) -> int:
-    """Joints on the longest path from joint ``j`` down to a leaf, ``j`` included."""
-    return 1 + max((_height(model, int(c)) for c in model.children[j]), default=0)
+def _distinct_frame_names(model: pin.Model) -> None:
+    """Rename (in place) a joint frame that shares its name with a link (URDF allows it; Pinocchio's lookups
+    by name do not): ``gripper`` the joint becomes ``gripper_joint``, ``gripper`` the link stays."""
+    counts = Counter(str(f.name) for f in model.frames)
+    for i, frame in enumerate(model.frames):
+        if counts[str(frame.name)] > 1 and frame.type != pin.FrameType.BODY:
+            new = f"{frame.name}_{str(frame.type.name).lower()}"
+            if frame.type == pin.FrameType.JOINT:
+                model.names[int(frame.parentJoint)] = new
+            frame.name = new
+            model.frames[i] = frame
 
 
-def _default_chain(model: pin.Model) -> set[int]:
-    """Joints from the root down the deepest subtree, stopping above a branch of leaves (fingers)."""
-    kids = {j: [int(c) for c in model.children[j]] for j in range(model.njoints)}
-    chain: set[int] = set()
-    node = 0
-    while kids[node]:
-        children = kids[node]
-        if len(children) > 1 and all(not kids[c] for c in children):
-            break
-        node = max(children, key=lambda c: (_height(model, c), -c))
-        chain.add(node)
-    return chain
-
-
-def _chain_without(model: pin.Model, lock: Sequence[str]) -> set[int]:
-    """Every joint except the named ones."""
-    locked = {int(model.getJointId(n)) for n in lock if model.existJointName(n)}
-    return {j for j in range(1, model.njoints) if j not in locked}
-
-
-def _default_tip(model: pin.Model) -> str:
-    """A tool-like frame on the last joint, else the frame furthest from it in the frame tree."""
+def _default_tip(model: pin.Model, hints: HandFrames) -> str:
+    """On the last joint: a tool-like frame, else the base of a locked gripper, else the frame furthest from
+    the joint in the frame tree; never a frame that moved with a locked gripper joint (a jaw)."""
     last = max(range(1, model.njoints), key=lambda j: (len(model.supports[j]), j))  # the deepest joint
-    candidates = [i for i, f in enumerate(model.frames) if f.parentJoint == last]
+    candidates = [i for i, f in enumerate(model.frames) if f.parentJoint == last and f.name not in hints.excluded]
 
     def hops(i: int) -> int:
         # A locked joint's frame can be its own parent after buildReducedModel: stop there too.
@@ -236,15 +271,30 @@ def _default_tip(model: pin.Model) -> str:
         return count
 
     tools = [i for i in candidates if any(h in model.frames[i].name.lower() for h in _TOOL_NAME_HINTS)]
-    best = max(tools or candidates, key=lambda i: (hops(i), i))
+    bases = [i for i in candidates if model.frames[i].name in hints.bases]
+    best = max(tools or bases or candidates, key=lambda i: (hops(i), i))
     return str(model.frames[best].name)
 
 
 def _structural_ranks(robot: Robot) -> tuple[int, ...]:
-    """Generic rank of each ``M_i``: the largest numerical rank over random configurations."""
+    """Generic rank of each ``M_i``: the largest numerical rank over random configurations.
 
+    Raises:
+        RobotLoadError: the hand cannot move along every task direction (e.g. ``"pose"`` for a planar arm).
+    """
     rng = np.random.default_rng(12345)
     result = avoidance(robot, robot.random_configurations(rng, 24), use_structural_ranks=False)
+    rows = result.J_task.shape[1]
+
+    def rank(m: int) -> int:  # generic rank of the first m task rows
+        return max(int(np.linalg.matrix_rank(J[:m], tol=1e-9 * max(1.0, float(np.linalg.norm(J, 2)))))
+                   for J in result.J_task)
+
+    task_rank = rank(rows)
+    if task_rank < rows:
+        valid = [t for t, s in TASK_ROWS.items() if s.stop < rows and rank(s.stop) == s.stop]
+        raise RobotLoadError(f"robot {robot.name!r} cannot follow task {robot.task!r}: its hand moves along only "
+                             f"{task_rank} of the task's {rows} directions; valid tasks for it: {valid or 'none'}")
     return tuple(int(r) for r in result.ranks.max(axis=0))
 
 

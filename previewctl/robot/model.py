@@ -17,6 +17,10 @@ Task = Literal["planar", "position", "pose"]
 Geometry = Literal["convex", "capsules", "mesh"]
 GEOMETRY_CHOICES: tuple[Geometry, ...] = ("convex", "capsules", "mesh")
 TASK_ROWS: dict[str, slice] = {"planar": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
+MAX_COORDINATE = 1e6
+"""Largest ``|q|`` entry accepted [rad or m]: beyond it angles lose their precision and positions overflow."""
+UNIT_PAIR_TOLERANCE = 1e-6
+"""How far from 1 the norm of a continuous joint's (cos, sin) pair may be."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,9 +142,11 @@ class Robot:
         return np.stack([pin.difference(self.model, neutral, q) for q in Q])
 
     def _finite_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Per-velocity-coordinate limits [rad or m] with missing (infinite) ones replaced by +-pi."""
+        """Per-velocity-coordinate limits [rad or m] with missing (infinite) ones replaced by +-pi, and none
+        beyond :data:`MAX_COORDINATE`."""
         lower, upper = self.joints.lower, self.joints.upper
-        return np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+        lower, upper = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+        return np.maximum(lower, -MAX_COORDINATE), np.minimum(upper, MAX_COORDINATE)
 
     def check_configurations(self, q: object) -> tuple[NDArray[np.float64], bool]:
         """Validate ``q`` of shape ``(nq,)`` or ``(B, nq)``.
@@ -149,7 +155,8 @@ class Robot:
             A fresh ``(B, nq)`` float array and whether the input was a single configuration.
 
         Raises:
-            ConfigurationError: wrong shape or a non-finite entry.
+            ConfigurationError: wrong shape, a non-finite entry, an entry beyond :data:`MAX_COORDINATE`, or a
+                continuous joint's (cos, sin) pair off the unit circle (:data:`UNIT_PAIR_TOLERANCE`).
         """
         try:
             arr = np.array(q, dtype=float)
@@ -168,7 +175,36 @@ class Robot:
             raise ConfigurationError(
                 f"q[{row}, {col}] = {batch[row, col]} (joint {self.joint_names_by_q()[col]!r}) is not finite"
             )
+        huge = np.abs(batch) > MAX_COORDINATE
+        if huge.any():
+            row, col = np.argwhere(huge)[0]
+            raise ConfigurationError(f"q[{row}, {col}] = {batch[row, col]:g} (joint {self.joint_names_by_q()[col]!r}) "
+                                     f"is out of range; valid: |q| <= {MAX_COORDINATE:g} [rad or m]")
+        pairs = self.joints.unit_pairs
+        if pairs.size:
+            norms = np.hypot(batch[:, pairs[:, 0]], batch[:, pairs[:, 1]])
+            off = np.abs(norms - 1.0) > UNIT_PAIR_TOLERANCE
+            if off.any():
+                row, k = np.argwhere(off)[0]
+                c, s = pairs[k]
+                raise ConfigurationError(
+                    f"q[{row}, {c}:{s + 1}] = ({batch[row, c]:g}, {batch[row, s]:g}) of continuous joint "
+                    f"{self.joint_names_by_q()[c]!r} must be a (cos, sin) pair: cos^2 + sin^2 = 1 to "
+                    f"{UNIT_PAIR_TOLERANCE:g}, got norm {norms[row, k]:.6g}"
+                )
         return batch, single
+
+    def check_limits(self, q: NDArray[np.float64]) -> None:
+        """Raise :class:`ConfigurationError` naming the first joint of ``q`` ``(nq,)`` outside its position
+        limits (to 1e-9; continuous joints have none)."""
+        coordinates = self.angles_of(np.asarray(q, dtype=float)[None])[0]
+        lower, upper = self.joints.lower, self.joints.upper
+        outside = np.flatnonzero((coordinates < lower - 1e-9) | (coordinates > upper + 1e-9))
+        if outside.size:
+            i = int(outside[0])
+            name = self.model.names[int(self.joints.q_joint[self.joints.q_index[i]])]
+            raise ConfigurationError(f"joint {name!r} = {coordinates[i]:.6g} is outside its limits; valid: "
+                                     f"[{lower[i]:.6g}, {upper[i]:.6g}] [rad or m]")
 
     def joint_names_by_q(self) -> tuple[str, ...]:
         """For each configuration entry, the name of the joint it belongs to."""

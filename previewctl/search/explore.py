@@ -98,6 +98,11 @@ def _grid_maxima(S_map: Array, periodic: NDArray[np.bool_]) -> NDArray[np.bool_]
     return is_max
 
 
+MAX_CANDIDATES = 2**21
+"""Most candidates (grid cells or samples, times the branches) one exploration scores: a 0.36 deg grid of a
+two-gene map with two branches, or 2,097,152 samples (memory and time stay within a workstation's)."""
+
+
 def explore(
     robot: Robot,
     evaluator: Evaluator,
@@ -133,9 +138,11 @@ def explore(
 
     Raises:
         UnreachableTargetError: no candidate puts the hand on the target.
-        ConfigurationError: a bad option or target.
+        ConfigurationError: a bad option or target, or more than :data:`MAX_CANDIDATES` candidates.
     """
     top_k = _check_options(resolution_deg, top_k, min_separation)
+    if samples is not None:
+        check_positive_int("samples", samples)  # also on a grid, which does not use it: a typo is still a typo
     red = redundancy if redundancy is not None else redundancy_map(robot)
     goal = parse_target(target, robot)
     reach_check(red, target, robot)
@@ -197,6 +204,13 @@ def _grid_design(red: RedundancyMap, resolution: float) -> _Design:
     """Every cell of the grid of step ``resolution`` [rad] (a map with at most 2 genes), every branch."""
     g, branches = int(np.asarray(red.gene_lower).size), int(red.branches)
     axes = _grid_axes(red, resolution)
+    count = branches * int(np.prod([len(a) for a in axes]))
+    if count > MAX_CANDIDATES:
+        per_axis = (MAX_CANDIDATES / branches) ** (1 / max(g, 1))
+        span = float(np.max(np.asarray(red.gene_upper) - np.asarray(red.gene_lower)))
+        finest = 1.02 * float(np.degrees(span / per_axis))  # rounded up below
+        raise ConfigurationError(f"resolution_deg = {np.degrees(resolution):g} makes {count:,} candidates, more than "
+                                 f"{MAX_CANDIDATES:,}; use resolution_deg >= {finest:.2g}")
     mesh = np.meshgrid(*axes, indexing="ij") if g else []
     one = np.stack([m.ravel() for m in mesh], axis=1) if g else np.zeros((1, 0))
     return _Design("grid", axes, np.tile(one, (branches, 1)), np.repeat(np.arange(branches), one.shape[0]))
@@ -207,6 +221,9 @@ def _sample_design(red: RedundancyMap, samples: int | None, rng: np.random.Gener
     g, branches = int(np.asarray(red.gene_lower).size), int(red.branches)
     count = samples if samples is not None else (65536 if isinstance(red, PlanarRedundancy) else 1024)
     count = check_positive_int("samples", count)
+    if count * branches > MAX_CANDIDATES:
+        raise ConfigurationError(f"samples = {count:,} makes {count * branches:,} candidates ({branches} branches), "
+                                 f"more than {MAX_CANDIDATES:,}; use samples <= {MAX_CANDIDATES // branches:,}")
     one = red.gene_lower + halton(count, g, rng) * (red.gene_upper - red.gene_lower)
     return _Design("samples", (), np.tile(one, (branches, 1)), np.repeat(np.arange(branches), count))
 

@@ -43,8 +43,11 @@ from previewctl.validation import Checked, Count, Finite, Integer, NonNegative, 
 
 # ------------------------------------------------------------------------------------- 1-step GA
 
-Population = Annotated[Integer, Field(ge=4)]
-"""Individuals per generation (at least 4: an elite, a peak and two parents)."""
+MAX_POPULATION = 10_000
+"""Most individuals per generation: each frame scores ``population`` configurations per imaginary arm, so
+10 000 already takes seconds of a 33 ms frame (the default is 64)."""
+Population = Annotated[Integer, Field(ge=4, le=MAX_POPULATION)]
+"""Individuals per generation (at least 4: an elite, a peak and two parents; at most :data:`MAX_POPULATION`)."""
 
 
 @dataclass(frozen=True)

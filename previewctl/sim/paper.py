@@ -37,7 +37,7 @@ from typing import Any
 
 from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, PAPER_WEIGHTS, ControllerSpec
 from previewctl.errors import PreviewctlError
-from previewctl.files import atomic_write_bytes
+from previewctl.files import atomic_folder, atomic_write_bytes, check_output_folder
 from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -139,13 +139,14 @@ pickle (a module-level function or a ``functools.partial`` of one) when runs go 
 
 
 def run_one(run: PaperRun, out_dir: Path, seed: int | None = None, after_run: AfterRun | None = None) -> dict[str, Any]:
-    """Simulate one run, save it to ``out_dir/<scene>/<label>/`` and return its summary."""
+    """Simulate one run, save it to ``out_dir/<scene>/<label>/`` and return its summary (``after_run`` gets the
+    run's temporary folder, which becomes ``out_dir/<scene>/<label>/`` once it returns)."""
     scenario = with_controller(canonical_scenario(run.scene), run.controller, run.execution)
     result = simulate(scenario, run.controller, seed=seed)
-    folder = out_dir / run.scene / run.label
-    save_run(result, folder)
-    if after_run is not None:
-        after_run(run.label, scenario, result, folder)
+    with atomic_folder(out_dir / run.scene / run.label) as folder:  # each run's folder is replaced whole
+        save_run(result, folder)
+        if after_run is not None:
+            after_run(run.label, scenario, result, folder)
     return result.summary()
 
 
@@ -180,7 +181,7 @@ def run_paper_scenes(
         PreviewctlError: an unknown scene, controller or execution name (checked before anything runs).
     """
     plan = paper_plan(scenes, controllers, executions)
-    out = Path(out_dir)
+    out = check_output_folder(out_dir)
     summaries: dict[PaperRun, dict[str, Any]] = {}
     if jobs <= 1:
         for run in plan:

@@ -93,6 +93,10 @@ class RobotSpec:
         )
 
 
+MAX_STEPS = 1_000_000
+"""Most control periods of one run (e.g. 10 000 s at dt = 10 ms): the log holds a few arrays of this length."""
+
+
 @dataclass(frozen=True)
 class Timing(Checked):
     """Time steps of a run.
@@ -108,9 +112,14 @@ class Timing(Checked):
     duration: Positive = 1.0
 
     def check(self) -> None:
-        """A run has a step: ``dt <= duration``."""
+        """A run has a step and at most :data:`MAX_STEPS`: ``dt <= duration <= MAX_STEPS dt`` (checked before any
+        array of the run is allocated)."""
         if self.dt > self.duration:
             raise ParameterError(f"dt = {self.dt} s is longer than duration = {self.duration} s")
+        if self.duration / self.dt > MAX_STEPS:
+            raise ParameterError(f"duration = {self.duration:g} s at dt = {self.dt:g} s is "
+                                 f"{self.duration / self.dt:.3g} control periods, more than {MAX_STEPS:,}; "
+                                 f"valid: duration / dt <= {MAX_STEPS:,}")
 
     @property
     def steps(self) -> int:

@@ -69,18 +69,30 @@ class Start:
     branch: int
 
 
+MAX_GRID_NODES = 2**25
+"""Most nodes (cells x branches x layers) of one reachability grid: its per-node arrays stay within a few
+hundred MB (the default 2 deg grid of planar4 with 50 steps has 3.3 million)."""
+
+
 def grid_model(robot: Robot, red: PlanarRedundancy, opts: ReachOptions, dt: float,
                q0: Array) -> tuple[GridModel, Start]:
     """The grid and transition model of steps of ``dt`` [s] from ``q0``, and ``q0`` on it.
 
     Raises:
-        ConfigurationError: the time step lets a gene move less than one grid step.
+        ConfigurationError: the time step lets a gene move less than one grid step, or more than
+            :data:`MAX_GRID_NODES` nodes.
     """
     g, n = red.g, red.n
     h = math.radians(opts.resolution_deg)
     delta, r = _joint_steps(robot, opts, dt, g)
     axes, periodic = gene_axes(red, h)
     shape = tuple(len(a) for a in axes)
+    total = int(np.prod(shape)) * int(red.branches) * (opts.steps + 1)
+    if total > MAX_GRID_NODES:
+        raise ConfigurationError(
+            f"resolution_deg = {opts.resolution_deg:g} and steps = {opts.steps} make {total:,} grid nodes "
+            f"({' x '.join(map(str, shape))} cells x {red.branches} branches x {opts.steps + 1} layers), more than "
+            f"{MAX_GRID_NODES:,}: use a coarser resolution or fewer steps")
     offsets = (np.array(list(np.ndindex(*(2 * r + 1))), dtype=np.int64) - r if g
                else np.zeros((1, 0), dtype=np.int64))
     rho = sweep_radii(robot)
