@@ -10,9 +10,10 @@ from typing import Any
 from previewctl.cli.common import Commands, ProgressBar
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
-from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, run_paper_scenes
+from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, canonical_scenario, run_paper_scenes
 from previewctl.sim.scenario import Scenario
 from previewctl.viz.figures import make_figures
+from previewctl.viz.replay import REPLAY_NAME, write_replay
 
 
 def add_parser(commands: Commands) -> None:
@@ -24,13 +25,16 @@ def add_parser(commands: Commands) -> None:
         "segments fitted to the paper's Table 3 along a target object, 50 s; scenarios/paper_planar.toml: the "
         "inverted staircase with a pillar trap) with none, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
         "k = 0.3, 0.65, 0.05), reach and the non-causal oracle; print one comparison table per scene; write "
-        "each run's log and figures to OUT/<scene>/<controller>/ and OUT/summary.json.",
+        "each run's log, figures and 3-D replay (replay.html, with the oracle's motion beside it) to "
+        "OUT/<scene>/<controller>/ and OUT/summary.json.",
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")
     paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
     paper.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
+    paper.add_argument("--no-replay", action="store_true",
+                       help=f"do not write the 3-D replays (OUT/<scene>/<controller>/{REPLAY_NAME})")
     paper.set_defaults(func=cmd_paper)
 
 
@@ -79,6 +83,11 @@ def cmd_paper(args: argparse.Namespace) -> int:
     finally:
         if bars:
             bars[-1].close()
+    if not args.no_replay:
+        for scene, summaries in results.items():
+            scenario = canonical_scenario(scene)
+            for name in summaries:  # after every run: each replay shows the scene's oracle run beside it
+                write_replay(out / scene / name, scenario=scenario)
     for scene, summaries in results.items():
         _table(scene, summaries, out)
     print(f"written {out / 'summary.json'} (and {out}/<scene>/summary.json)")

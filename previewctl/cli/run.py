@@ -11,6 +11,7 @@ from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.viz.figures import make_figures
+from previewctl.viz.replay import REPLAY_NAME, write_replay
 
 
 def add_parser(commands: Commands) -> None:
@@ -30,6 +31,8 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--continue-after-collision", action="store_true",
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
+    run.add_argument("--view", action="store_true",
+                     help=f"also write the 3-D replay (OUT/{REPLAY_NAME}, opens from disk in a browser)")
     run.set_defaults(func=cmd_run)
 
 
@@ -47,6 +50,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     summary = result.summary()
     npz_path, json_path = save_run(result, out)
     figures = make_figures(result, scenario, out, gif=False if args.no_gif else None)
+    if args.view:
+        figures.append(write_replay(result, out / REPLAY_NAME, scenario=scenario))
 
     def metre(value: float | None) -> str:
         return "-" if value is None else f"{value * 1e3:.2f} mm"

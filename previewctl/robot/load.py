@@ -122,19 +122,32 @@ def load_robot(
 # --------------------------------------------------------------------------------------- loading
 
 
+def load_visual(
+    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]] = ()
+) -> tuple[pin.Model, pin.GeometryModel]:
+    """The full (unreduced) model of ``source`` and its visual geometry (meshes with their file paths).
+
+    ``source`` and ``package_dirs`` are as in :func:`load_robot`; the model has every joint, locked or not.
+    """
+    _, model, visual = _load_source(source, package_dirs, pin.GeometryType.VISUAL)
+    return model, visual
+
+
 def _load_source(
-    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
+    source: str | os.PathLike[str],
+    package_dirs: Sequence[str | os.PathLike[str]],
+    kind: pin.GeometryType = pin.GeometryType.COLLISION,
 ) -> tuple[str, pin.Model, pin.GeometryModel]:
-    """Resolve ``source`` to (name, full model, full collision model)."""
+    """Resolve ``source`` to (name, full model, full geometry model of ``kind``)."""
     text = os.fspath(source)
     shipped = shipped_robots_dir() / f"{text}.urdf"
     if shipped.is_file():
-        return text, *_load_urdf(shipped, package_dirs)
+        return text, *_load_urdf(shipped, package_dirs, kind)
     if text.endswith(".urdf") or os.sep in text or Path(text).suffix:
         path = Path(text)
         if not path.is_file():
             raise RobotLoadError(f"URDF file {text!r} does not exist")
-        return path.stem, *_load_urdf(path, package_dirs)
+        return path.stem, *_load_urdf(path, package_dirs, kind)
     known = example_robot_names()
     if text not in known:
         raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
@@ -142,11 +155,12 @@ def _load_source(
 
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         wrapper = example_robot_data.load(text)
-    return text, wrapper.model, wrapper.collision_model
+    geometry = wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model
+    return text, wrapper.model, geometry
 
 
 def _load_urdf(
-    path: Path, package_dirs: Sequence[str | os.PathLike[str]]
+    path: Path, package_dirs: Sequence[str | os.PathLike[str]], kind: pin.GeometryType
 ) -> tuple[pin.Model, pin.GeometryModel]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
     try:
@@ -162,10 +176,10 @@ def _load_urdf(
             raise RobotLoadError(f"URDF file {str(path)!r}: mesh file {filename!r} not found (searched {dirs})")
     try:
         model = pin.buildModelFromUrdf(str(path))
-        collision = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
+        geometry = pin.buildGeomFromUrdf(model, str(path), kind, package_dirs=dirs)
     except (ValueError, RuntimeError) as exc:
         raise RobotLoadError(f"URDF file {str(path)!r} could not be loaded: {exc}") from exc
-    return model, collision
+    return model, geometry
 
 
 # --------------------------------------------------------------------------------- chain and tip
