@@ -83,7 +83,9 @@ def shape_mesh(shape: coal.CollisionGeometry, plane_size: float = 2.0) -> trimes
     if isinstance(shape, coal.ConvexBase):
         return trimesh.convex.convex_hull(np.asarray(shape.points(), float))
     if isinstance(shape, coal.BVHModelBase):
-        return trimesh.Trimesh(np.asarray(shape.vertices(), float), np.asarray(shape.tri_indices(), int), process=False)
+        triangles = [shape.tri_indices(i) for i in range(shape.num_tris)]
+        faces = np.array([[t[0], t[1], t[2]] for t in triangles], dtype=int).reshape(-1, 3)
+        return trimesh.Trimesh(np.asarray(shape.vertices(), float), faces, process=False)
     raise PreviewctlError(
         f"cannot draw a Coal {type(shape).__name__}; drawable: sphere, ellipsoid, box, capsule, cylinder, cone, "
         "half-space, plane, convex, triangle mesh"
