@@ -1,4 +1,4 @@
-"""Tests of :mod:`previewctl.viz.meshes` and :mod:`previewctl.viz.arm_meshes`: Coal shapes and URDF visuals as meshes."""
+"""Tests of :mod:`previewctl.viz.meshes` and :mod:`previewctl.viz.arm_meshes`: Coal shapes and URDF visuals."""
 
 from __future__ import annotations
 
@@ -82,7 +82,7 @@ def test_an_unknown_shape_is_named() -> None:
 
 def test_dae_file_keeps_its_material_colours() -> None:
     """The Panda's link 6 has white, dark grey and small coloured parts; together they are Coal's mesh."""
-    model, visual = load_visual("panda")
+    _, visual = load_visual("panda")
     obj = visual.geometryObjects[visual.getGeometryId("panda_link6_0")]
     parts = file_parts(obj.meshPath, obj.meshScale, ARM_RGBA)
     assert parts is not None

@@ -52,8 +52,9 @@ PATH_RGB = (0.45, 0.45, 0.45)
 TRACE_RGB = (0.1, 0.35, 0.9)
 
 
-def _rgb(hex_colour: str) -> tuple[float, float, float]:
-    return tuple(int(hex_colour[i:i + 2], 16) / 255.0 for i in (1, 3, 5))  # type: ignore[return-value]
+def _rgb(hex_colour: str) -> tuple[int, int, int]:
+    """``"#rrggbb"`` as integers in [0, 255] (what viser's node updates take; mesh colours accept them too)."""
+    return (int(hex_colour[1:3], 16), int(hex_colour[3:5], 16), int(hex_colour[5:7], 16))
 
 
 @dataclass(frozen=True)
@@ -95,10 +96,12 @@ def find_contact(result: RunResult, scenario: Scenario) -> Contact | None:
 
 
 def frame_steps(t: Array, fps: float, extra: int | None = None) -> Array:
-    """Log step indices of the replay frames: one per ``1/fps`` [s] of run time, the last step and ``extra``."""
+    """Log step indices of the replay frames: the step nearest each ``1/fps`` [s] of run time, the last step and
+    ``extra``."""
     times = np.arange(t[0], t[-1], 1.0 / fps)
-    steps = np.clip(np.searchsorted(t, times), 0, t.size - 1)
-    steps = np.append(steps, t.size - 1)
+    after = np.clip(np.searchsorted(t, times), 1, max(t.size - 1, 1))
+    nearest = np.where(times - t[after - 1] < t[np.minimum(after, t.size - 1)] - times, after - 1, after)
+    steps = np.append(np.minimum(nearest, t.size - 1), t.size - 1)
     if extra is not None:
         steps = np.append(steps, extra)
     return np.unique(steps)
