@@ -64,6 +64,7 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
     assert none["max_hand_error"] < 1e-3
     assert (out / "paper_planar" / "none" / "run.npz").is_file()
     assert (out / "paper_planar" / "none" / "strobe.png").is_file()
+    assert (out / "paper_planar" / "none" / "replay.html").stat().st_size > 100_000  # the 3-D replay of each run
     table = capsys.readouterr().out
     assert table.index("paper_fitted (") < table.index("paper_planar (") and "link3" in table
 

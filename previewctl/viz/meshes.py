@@ -127,10 +127,14 @@ def file_parts(
     except Exception:  # trimesh raises many types (ValueError, KeyError, import errors of optional readers)
         return None
     by_colour: dict[tuple[float, float, float, float], list[trimesh.Trimesh]] = {}
-    for mesh in scene.dump():
+    for node in scene.graph.nodes_geometry:  # each placed instance of a geometry, in the file's frame
+        transform, name = scene.graph[node]
+        mesh = scene.geometry[name]
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             continue
-        by_colour.setdefault(_colour(mesh, default_rgba), []).append(mesh)
+        placed = mesh.copy()
+        placed.apply_transform(transform)
+        by_colour.setdefault(_colour(mesh, default_rgba), []).append(placed)
     parts = []
     for rgba, meshes in by_colour.items():
         offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])

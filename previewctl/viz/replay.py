@@ -158,16 +158,22 @@ def _camera(points: Array, planar: bool) -> tuple[Array, Array, float]:
     low, high = points.min(axis=0), points.max(axis=0)
     centre, radius = 0.5 * (low + high), max(0.5 * float(np.linalg.norm(high - low)), 0.3)
     direction = np.array([0.0, -0.35, 1.0]) if planar else np.array([1.0, -0.9, 0.6])
-    return centre + 1.5 * radius * direction / np.linalg.norm(direction), centre, radius
+    return centre + (1.5 if planar else 1.25) * radius * direction / np.linalg.norm(direction), centre, radius
 
 
 def _framed_points(result: RunResult, scenario: Scenario, meshes: ArmMeshes, steps: Array) -> Array:
-    """Points the camera must see [m]: the hand, the path, the arm at the start, the bounded obstacles."""
+    """Points the camera must see [m]: the hand, the desired path, the arm at the start, the bounded obstacles."""
     arm = [m.translation for m in meshes.placements(result.q[0])]
     times = result.t[steps]
     bounded = [o for o in scenario.scene.obstacles if not isinstance(o.shape, (Halfspace, Plane))]
     obstacles = [o.motion.positions(times) for o in bounded]
-    return np.vstack([result.hand, result.desired, arm, *obstacles])
+    return np.vstack([result.hand, _waypoints(scenario), arm, *obstacles])
+
+
+def _waypoints(scenario: Scenario) -> Array:
+    """The desired path's waypoints in 3-D [m] (z = 0 for a planar path): the whole path, reached or not."""
+    points = scenario.path.waypoints
+    return np.pad(points, ((0, 0), (0, 3 - points.shape[1])))
 
 
 def replay_html(
@@ -210,9 +216,9 @@ def replay_html(
         server.initial_camera.position = eye
         server.initial_camera.look_at = centre
         cell = 0.1 if radius < 1.0 else 0.25
-        scene.add_grid("/grid", width=4.0 * radius, height=4.0 * radius, cell_size=cell, section_size=5 * cell,
+        scene.add_grid("/grid", width=3.0 * radius, height=3.0 * radius, cell_size=cell, section_size=5 * cell,
                        position=(centre[0], centre[1], -0.05 if planar else 0.0))
-        scene.add_line_segments("/path/desired", _polyline(result.desired[steps]), PATH_RGB, thickness=0.004)
+        scene.add_line_segments("/path/desired", _polyline(_waypoints(scenario)), PATH_RGB, thickness=0.004)
         obstacles = _add_obstacles(scene, scenario, 3.0 * radius)
         arm = _Arm(scene, meshes, "/arm", None)
         ghosts = [_Arm(scene, meshes, f"/ghost{i}", GHOST_RGBA[i % len(GHOST_RGBA)])
