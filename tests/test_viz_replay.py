@@ -29,15 +29,8 @@ from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 from previewctl.viz.drawing import COLLISION_COLOUR
-from previewctl.viz.replay import (
-    GHOST_RGBA,
-    HOLD,
-    ORACLE_RGBA,
-    REPLAY_NAME,
-    find_contact,
-    frame_steps,
-    write_replay,
-)
+from previewctl.viz.replay import HOLD, REPLAY_NAME, frame_steps, live_replay, write_replay
+from previewctl.viz.replay_scene import GHOST_RGBA, ORACLE_RGBA, find_contact
 
 BALL = {"name": "ball", "shape": "sphere", "radius": 0.1,
         "motion": {"type": "constant_velocity", "position": [0.33, -0.4], "velocity": [0.0, 0.4]}}
@@ -164,6 +157,29 @@ def test_bad_inputs_are_named(crossing: tuple[Scenario, RunResult], tmp_path: Pa
     missing = str(tmp_path / "nothing")
     assert capsys.readouterr().err == f"previewctl: error: no run in {missing!r}: run.npz is missing\n"
     assert not (tmp_path / "run" / REPLAY_NAME).exists()
+
+
+def test_live_replay_follows_the_slider_back_and_forth(crossing: tuple[Scenario, RunResult]) -> None:
+    """The live viewer's slider shows any time: the arm where the log has it, the collision only from 1.2 s on."""
+    import viser
+
+    scenario, result = crossing
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        live = live_replay(server, result, scenario)
+        meshes = live.scene.arm.meshes
+        link1 = live.scene.arm.parts["link1"][0][0]
+        for t, k, collided in ((1.2, 120, True), (0.3, 30, False), (0.9, 90, False)):
+            live.slider.value = t
+            for frame, placement in zip(live.scene.arm.frames, meshes.placements(result.q[k]), strict=True):
+                np.testing.assert_allclose(frame.position, placement.translation, atol=1e-12)
+            assert live.scene.marker.visible is collided and live.scene.label.visible is collided
+            assert tuple(link1.color) == (RED if collided else (89, 140, 217))  # ARM_RGBA in 0-255
+            ball = live.scene.obstacles[0].frame.position
+            np.testing.assert_allclose(ball, [0.33, -0.4 + 0.4 * t, 0.0], atol=1e-12)
+        assert server.get_host() == "127.0.0.1"
+    finally:
+        server.stop()
 
 
 def test_ten_second_panda_replay_with_three_ghosts_stays_under_10_mb(tmp_path: Path) -> None:

@@ -1,15 +1,10 @@
-"""A run as a 3-D replay in the browser: one self-contained HTML file (viser's offline player).
+"""A run as a 3-D replay in the browser: one self-contained HTML file (viser's offline player), or live.
 
-:func:`write_replay` records the run into a viser scene and saves it as ``replay.html``: it opens from
-disk with no server and no network, with play/pause, a time slider and an orbit camera. It shows
-
-* the arm with the visual meshes of its URDF (:mod:`previewctl.viz.arm_meshes`);
-* every obstacle with its motion, the desired hand path (grey) and the hand's trace as it is drawn;
-* the imaginary arms the preview controllers steered toward, as translucent ghosts (from the log's
-  ``targets``; hidden while the controller computed none), and the oracle's motion as a translucent
-  green arm when its run is given;
-* the first collision: from its time on, the colliding link and the obstacle turn red and a red
-  ball marks the contact (the nearest points of the pair), with a label naming both.
+:func:`write_replay` records the run's scene (:class:`~previewctl.viz.replay_scene.ReplayScene`: the arm's
+meshes, the obstacles moving, the desired path and the hand's trace, the imaginary arms as ghosts, the
+oracle's motion, the collision in red) frame after frame and saves it as ``replay.html``: it opens from
+disk with no server and no network, with play/pause, a time slider and an orbit camera.
+:func:`serve_replay` shows the same scene live, from a local server on 127.0.0.1 with a time slider.
 
 Size: a replay holds every mesh once (viser stores identical buffers once, so ghosts cost no mesh
 data) plus the poses of each frame. Frames are taken at ``fps`` (default 15 per second of the run).
@@ -20,79 +15,27 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_write_bytes
-from previewctl.scene.clearance import Clearance
-from previewctl.scene.shapes import Halfspace, Obstacle, Plane
 from previewctl.sim.log import RunResult, load_run
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario
 from previewctl.types import Array
-from previewctl.viz.arm_meshes import ArmMeshes
-from previewctl.viz.drawing import COLLISION_COLOUR
-from previewctl.viz.meshes import Part, shape_parts
+from previewctl.viz.replay_scene import ReplayScene
 
 REPLAY_NAME = "replay.html"
 DEFAULT_FPS = 15.0
 """Replay frames per second of run time (the log has 100 per second at dt = 0.01 s)."""
-GHOST_RGBA = ((1.0, 0.6, 0.1, 0.22), (0.6, 0.3, 0.9, 0.22), (0.1, 0.7, 0.7, 0.22))
-"""Colours of the imaginary arms ``q~_1, q~_2, ...`` (repeated beyond three)."""
-ORACLE_RGBA = (0.15, 0.7, 0.25, 0.3)
-OBSTACLE_RGBA = (0.42, 0.48, 0.6, 0.9)
 HOLD = 1.0
 """Time [s] the last frame stays on screen (the end of a colliding run is its collision)."""
-PATH_RGB = (0.45, 0.45, 0.45)
-TRACE_RGB = (0.1, 0.35, 0.9)
-
-
-def _rgb(hex_colour: str) -> tuple[int, int, int]:
-    """``"#rrggbb"`` as integers in [0, 255] (what viser's node updates take; mesh colours accept them too)."""
-    return (int(hex_colour[1:3], 16), int(hex_colour[3:5], 16), int(hex_colour[5:7], 16))
-
-
-@dataclass(frozen=True)
-class Contact:
-    """Where a run first collided.
-
-    Attributes:
-        step: index of the first colliding log step.
-        link: the colliding guarded link.
-        obstacle: index of the obstacle it hit in the scene.
-        point: ``(3,)`` contact point [m] (midpoint of the pair's nearest points).
-    """
-
-    step: int
-    link: str
-    obstacle: int
-    point: Array
-
-
-def find_contact(result: RunResult, scenario: Scenario) -> Contact | None:
-    """The first collision of ``result``: its link (from the log) and the obstacle nearest that link.
-
-    Returns ``None`` for a collision-free run.
-    """
-    k, link = result.collision_index, result.summary()["collision_link"]
-    if k is None or link is None or not scenario.scene.obstacles:
-        return None
-    robot = scenario.robot
-    clearance = Clearance(robot, scenario.scene)
-    clearance.set_time(float(result.t[k]))
-    data = robot.model.createData()
-    pin.forwardKinematics(robot.model, data, result.q[k])
-    distances = np.array(clearance.pair_distances(data))
-    pairs = np.flatnonzero(clearance.pair_links == robot.guarded_links.index(link))
-    best = int(pairs[np.argmin(distances[pairs])]) if pairs.size else int(np.argmin(distances))
-    res = clearance.data.distanceResults[best]
-    point = 0.5 * (np.asarray(res.getNearestPoint1()) + np.asarray(res.getNearestPoint2()))
-    return Contact(k, link, int(clearance.pair_obstacles[best]), point)
 
 
 def frame_steps(t: Array, fps: float, extra: int | None = None) -> Array:
@@ -107,73 +50,18 @@ def frame_steps(t: Array, fps: float, extra: int | None = None) -> Array:
     return np.unique(steps)
 
 
-def _wxyz(rotation: Array) -> Array:
-    x, y, z, w = pin.Quaternion(np.asarray(rotation, float)).coeffs()
-    return np.array([w, x, y, z])
+@contextlib.contextmanager
+def _server(port: int, quiet: bool) -> Iterator[Any]:
+    """A viser server on 127.0.0.1 (port 0: any free port), stopped on exit; ``quiet`` silences its messages."""
+    import viser
 
-
-class _Arm:
-    """One arm drawn in the scene (the run's, a ghost or the oracle's): a frame per visual object."""
-
-    def __init__(self, scene: Any, meshes: ArmMeshes, root: str, rgba: tuple[float, float, float, float] | None):
-        self.meshes = meshes
-        self.frames: list[Any] = []
-        self.parts: dict[str, list[Any]] = {}
-        for link in meshes.links:
-            frame = scene.add_frame(f"{root}/{link.name}", show_axes=False)
-            handles = [_add_part(scene, f"{root}/{link.name}/{i}", part, rgba) for i, part in enumerate(link.parts)]
-            self.parts.setdefault(link.body, []).extend(handles)
-            self.frames.append(frame)
-
-    def show(self, q: Array) -> None:
-        """Place the arm at ``q`` (reduced model), or hide it where ``q`` is not finite (no target computed)."""
-        visible = bool(np.all(np.isfinite(q)))
-        for frame in self.frames:
-            frame.visible = visible
-        if visible:
-            for frame, placement in zip(self.frames, self.meshes.placements(q), strict=True):
-                frame.position = placement.translation
-                frame.wxyz = _wxyz(placement.rotation)
-
-
-def _add_part(scene: Any, name: str, part: Part, rgba: tuple[float, float, float, float] | None) -> Any:
-    """A mesh node; ``rgba`` (a ghost's colour) replaces the part's own colour."""
-    r, g, b, a = rgba or part.rgba
-    return scene.add_mesh_simple(
-        name, part.vertices, part.faces, color=(r, g, b), opacity=None if a >= 1.0 else a,
-        cast_shadow=rgba is None, receive_shadow=rgba is None,
-    )
-
-
-def _polyline(points: Array) -> Array:
-    """``(N, 3)`` points as the ``(N-1, 2, 3)`` segments viser draws."""
-    return np.stack([points[:-1], points[1:]], axis=1)
-
-
-def _camera(points: Array, planar: bool) -> tuple[Array, Array, float]:
-    """A camera position and look-at point [m] that frame ``points``, and the scene's radius [m].
-
-    Planar arms are seen from above (slightly tilted), spatial ones from the front right.
-    """
-    low, high = points.min(axis=0), points.max(axis=0)
-    centre, radius = 0.5 * (low + high), max(0.5 * float(np.linalg.norm(high - low)), 0.3)
-    direction = np.array([0.0, -0.35, 1.0]) if planar else np.array([1.0, -0.9, 0.6])
-    return centre + (1.5 if planar else 1.25) * radius * direction / np.linalg.norm(direction), centre, radius
-
-
-def _framed_points(result: RunResult, scenario: Scenario, meshes: ArmMeshes, steps: Array) -> Array:
-    """Points the camera must see [m]: the hand, the desired path, the arm at the start, the bounded obstacles."""
-    arm = [m.translation for m in meshes.placements(result.q[0])]
-    times = result.t[steps]
-    bounded = [o for o in scenario.scene.obstacles if not isinstance(o.shape, (Halfspace, Plane))]
-    obstacles = [o.motion.positions(times) for o in bounded]
-    return np.vstack([result.hand, _waypoints(scenario), arm, *obstacles])
-
-
-def _waypoints(scenario: Scenario) -> Array:
-    """The desired path's waypoints in 3-D [m] (z = 0 for a planar path): the whole path, reached or not."""
-    points = scenario.path.waypoints
-    return np.pad(points, ((0, 0), (0, 3 - points.shape[1])))
+    with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
+        server = viser.ViserServer(host="127.0.0.1", port=port, verbose=not quiet)
+    try:
+        yield server
+    finally:
+        with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
+            server.stop()
 
 
 def replay_html(
@@ -192,97 +80,55 @@ def replay_html(
     """
     if not fps > 0:
         raise PreviewctlError(f"fps must be > 0, got {fps}")
-    robot = scenario.robot
-    if result.q.shape[1] != robot.model.nq:
-        raise PreviewctlError(
-            f"run {result.scenario!r} has {result.q.shape[1]} joints; scenario {scenario.name!r}'s robot "
-            f"{robot.name!r} has {robot.model.nq}: pass the scenario the run was made with"
-        )
-    import viser
-
-    meshes = ArmMeshes(robot, scenario.robot_spec)
-    contact = find_contact(result, scenario)
-    steps = frame_steps(result.t, fps, contact.step if contact else None)
-    planar = robot.task == "planar"
-    eye, centre, radius = _camera(_framed_points(result, scenario, meshes, steps), planar)
-    with contextlib.redirect_stdout(io.StringIO()):  # viser prints its server's start and stop
-        server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    try:
-        scene = server.scene
-        scene.set_up_direction("+z")
-        # no environment map: in software WebGL (headless browsers, remote desktops) it costs ~1 s a frame
-        scene.configure_environment_map(None)
-        scene.add_light_hemisphere("/light", sky_color=(255, 255, 255), ground_color=(120, 120, 120), intensity=2.5)
-        server.initial_camera.position = eye
-        server.initial_camera.look_at = centre
-        cell = 0.1 if radius < 1.0 else 0.25
-        scene.add_grid("/grid", width=3.0 * radius, height=3.0 * radius, cell_size=cell, section_size=5 * cell,
-                       position=(centre[0], centre[1], -0.05 if planar else 0.0))
-        scene.add_line_segments("/path/desired", _polyline(_waypoints(scenario)), PATH_RGB, thickness=0.004)
-        obstacles = _add_obstacles(scene, scenario, 3.0 * radius)
-        arm = _Arm(scene, meshes, "/arm", None)
-        ghosts = [_Arm(scene, meshes, f"/ghost{i}", GHOST_RGBA[i % len(GHOST_RGBA)])
-                  for i in range(result.targets.shape[1])]
-        oracle_arm = _Arm(scene, meshes, "/oracle", ORACLE_RGBA) if oracle is not None else None
-        marker = scene.add_icosphere("/collision/marker", radius=max(0.02, 0.02 * radius), color=_rgb(COLLISION_COLOUR),
-                                     visible=False)
+    with _server(0, quiet=True) as server:
+        replay = ReplayScene(server, result, scenario, oracle)
+        steps = frame_steps(result.t, fps, replay.contact.step if replay.contact else None)
         serializer = server.get_scene_serializer()
-        previous = int(steps[0])
         for frame, k in enumerate(steps):
-            k = int(k)
-            t = float(result.t[k])
-            arm.show(result.q[k])
-            for i, ghost in enumerate(ghosts):
-                ghost.show(result.targets[k, i])
-            if oracle_arm is not None and oracle is not None:
-                oracle_arm.show(oracle.q[min(int(np.searchsorted(oracle.t, t)), oracle.steps - 1)])
-            for node in obstacles:
-                placement = node.obstacle.placement(t)
-                node.frame.position = placement.translation
-                node.frame.wxyz = _wxyz(placement.rotation)
-            if k > previous:
-                scene.add_line_segments(f"/path/trace/{frame}", _polyline(result.hand[previous:k + 1]), TRACE_RGB,
-                                        thickness=0.006)
-            previous = k
-            if contact is not None and k == contact.step:
-                _show_contact(scene, contact, arm, obstacles[contact.obstacle], marker, t)
-            serializer.insert_sleep(float(result.t[steps[frame + 1]] - t) if frame + 1 < steps.size else HOLD)
+            replay.show(int(k))
+            replay.add_trace(str(frame), int(steps[max(frame - 1, 0)]), int(k))
+            serializer.insert_sleep(float(result.t[steps[frame + 1]] - result.t[k]) if frame + 1 < steps.size else HOLD)
         return serializer.as_html()
-    finally:
-        with contextlib.redirect_stdout(io.StringIO()):
-            server.stop()
 
 
 @dataclass(frozen=True, eq=False)
-class _ObstacleNode:
-    """An obstacle in the scene: its frame (moved each frame) and its mesh handles (recoloured at a collision)."""
+class LiveReplay:
+    """A run shown live: its scene and the GUI handles that drive it."""
 
-    obstacle: Obstacle
-    frame: Any
-    parts: tuple[Any, ...]
-
-
-def _add_obstacles(scene: Any, scenario: Scenario, plane_size: float) -> list[_ObstacleNode]:
-    """A frame per obstacle with its mesh."""
-    nodes = []
-    for obstacle in scenario.scene.obstacles:
-        root = f"/obstacles/{obstacle.name}"
-        frame = scene.add_frame(root, show_axes=False)
-        parts = shape_parts(obstacle.shape.geometry(), OBSTACLE_RGBA, plane_size)
-        handles = tuple(_add_part(scene, f"{root}/{i}", part, None) for i, part in enumerate(parts))
-        nodes.append(_ObstacleNode(obstacle, frame, handles))
-    return nodes
+    scene: ReplayScene
+    slider: Any
+    playing: Any
 
 
-def _show_contact(scene: Any, contact: Contact, arm: _Arm, obstacle: _ObstacleNode, marker: Any, t: float) -> None:
-    """From the collision on: the link and the obstacle in red, the contact marked and labelled."""
-    red = _rgb(COLLISION_COLOUR)
-    for handle in (*arm.parts.get(contact.link, []), *obstacle.parts):
-        handle.color = red
-    marker.position = contact.point
-    marker.visible = True
-    scene.add_label("/collision/label", f"collision at t = {t:.2f} s: {contact.link} hits {obstacle.obstacle.name}",
-                    position=contact.point)
+def live_replay(server: Any, result: RunResult, scenario: Scenario, oracle: RunResult | None = None) -> LiveReplay:
+    """Fill ``server`` with the run's scene, a time slider and a play box (moving the slider shows that time)."""
+    replay = ReplayScene(server, result, scenario, oracle)
+    slider = server.gui.add_slider("t [s]", min=float(result.t[0]), max=float(result.t[-1]), step=float(result.dt),
+                                   initial_value=float(result.t[0]))
+    playing = server.gui.add_checkbox("play", initial_value=False)
+
+    def show(_: object = None) -> None:
+        k = min(int(np.searchsorted(result.t, slider.value - 0.5 * result.dt)), result.steps - 1)
+        replay.show(k)
+        replay.add_trace("live", 0, max(k, 1))  # one node, replaced: the slider may go back
+
+    slider.on_update(show)
+    show()
+    return LiveReplay(replay, slider, playing)
+
+
+def serve_replay(result: RunResult, scenario: Scenario, *, oracle: RunResult | None = None, port: int = 8080) -> None:
+    """Show the run live at ``http://127.0.0.1:<port>`` (this machine only; the next free port if taken) with a
+    time slider and a play box, until Ctrl-C."""
+    with _server(port, quiet=False) as server:
+        live = live_replay(server, result, scenario, oracle)
+        period = 1.0 / DEFAULT_FPS
+        with contextlib.suppress(KeyboardInterrupt):
+            while True:
+                time.sleep(period)
+                if live.playing.value:  # at the end, start over
+                    later = live.slider.value + period
+                    live.slider.value = later if later <= result.t[-1] else float(result.t[0])
 
 
 def scenario_of(result: RunResult) -> Scenario:
