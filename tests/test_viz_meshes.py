@@ -8,9 +8,10 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import random_chain_urdf
 
 from previewctl.errors import PreviewctlError
-from previewctl.robot.load import load_visual
+from previewctl.robot.load import load_robot, load_visual
 from previewctl.robot.model import Robot
 from previewctl.sim.schema import RobotSpec
 from previewctl.viz.arm_meshes import ARM_RGBA, ArmMeshes
@@ -128,3 +129,12 @@ def test_panda_visuals_follow_the_reduced_model(panda: Robot) -> None:
         expected = data.oMi[joint] * obj.placement
         np.testing.assert_allclose(placements[f"{body}_0"].homogeneous, expected.homogeneous, atol=1e-9)
     assert {link.body for link in arm.links} >= {"panda_leftfinger", "panda_hand"}
+
+
+def test_urdf_without_visuals_is_drawn_with_its_collision_geometry(tmp_path: Path) -> None:
+    urdf = tmp_path / "chain.urdf"
+    urdf.write_text(random_chain_urdf(np.random.default_rng(5), 5))
+    robot = load_robot(urdf)
+    arm = ArmMeshes(robot, RobotSpec(source=str(urdf)))
+    assert len(arm.links) == 5 and all(link.parts for link in arm.links)
+    assert len(arm.placements(np.zeros(robot.model.nq))) == 5

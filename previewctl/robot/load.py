@@ -128,8 +128,11 @@ def load_visual(
     """The full (unreduced) model of ``source`` and its visual geometry (meshes with their file paths).
 
     ``source`` and ``package_dirs`` are as in :func:`load_robot`; the model has every joint, locked or not.
+    A URDF without ``<visual>`` elements gives its collision geometry instead, so the arm can still be drawn.
     """
     _, model, visual = _load_source(source, package_dirs, pin.GeometryType.VISUAL)
+    if visual.ngeoms == 0:
+        _, model, visual = _load_source(source, package_dirs, pin.GeometryType.COLLISION)
     return model, visual
 
 
