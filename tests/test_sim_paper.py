@@ -72,6 +72,7 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
     assert none["max_hand_error"] < 1e-3
     assert (out / "paper_planar" / "none-pinv" / "run.npz").is_file()
     assert (out / "paper_planar" / "none-pinv" / "strobe.png").is_file()
+    assert (out / "paper_planar" / "none-pinv" / "replay.html").stat().st_size > 100_000  # each run's 3-D replay
     table = capsys.readouterr().out
     assert table.index("paper_fitted (") < table.index("paper_planar (") and "link3" in table
 

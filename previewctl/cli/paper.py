@@ -6,6 +6,7 @@ import argparse
 import functools
 import os
 import sys
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -15,9 +16,17 @@ from previewctl.cli.common import Commands, seed_value
 from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
-from previewctl.sim.paper import CANONICAL_SCENES, PAPER_CONTROLLERS, PaperRun, paper_plan, run_paper_scenes
+from previewctl.sim.paper import (
+    CANONICAL_SCENES,
+    PAPER_CONTROLLERS,
+    PaperRun,
+    canonical_scenario,
+    paper_plan,
+    run_paper_scenes,
+)
 from previewctl.sim.scenario import Scenario
 from previewctl.viz.figures import make_figures
+from previewctl.viz.replay import REPLAY_NAME, write_replay
 
 
 def add_parser(commands: Commands) -> None:
@@ -30,8 +39,8 @@ def add_parser(commands: Commands) -> None:
         "inverted staircase with a pillar trap) with none, qp, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
         "k = 0.3, 0.65, 0.05), reach and the non-causal oracle, each executed by the constrained QP (label: the "
         "controller's name; none under the QP is the qp baseline) and by the paper's pseudo-inverse eq. 19 "
-        "(label: <name>-pinv); print one comparison table per scene; write each run's log and figures to "
-        "OUT/<scene>/<label>/ and OUT/summary.json.",
+        "(label: <name>-pinv); print one comparison table per scene; write each run's log, figures and 3-D "
+        "replay (replay.html, with the oracle's motion beside it) to OUT/<scene>/<label>/ and OUT/summary.json.",
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")
@@ -39,6 +48,8 @@ def add_parser(commands: Commands) -> None:
     paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
     paper.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
+    paper.add_argument("--no-replay", action="store_true",
+                       help=f"do not write the 3-D replays (OUT/<scene>/<label>/{REPLAY_NAME})")
     paper.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                        help="runs in parallel, one process each (default: the number of cores)")
     paper.set_defaults(func=cmd_paper)
@@ -71,6 +82,11 @@ def _figures(label: str, scenario: Scenario, result: RunResult, folder: Path, *,
     make_figures(result, scenario, folder, gif=None if gif else False)
 
 
+def _replay(folder: Path, scene: str) -> None:
+    """Write a run's 3-D replay (module level, so that worker processes can receive it)."""
+    write_replay(folder, scenario=canonical_scenario(scene))
+
+
 def cmd_paper(args: argparse.Namespace) -> int:
     """Run the canonical planar scenes with every controller: comparison tables, figures, summary.json."""
     names = _names(args.controllers, tuple(PAPER_CONTROLLERS), "--controllers")
@@ -94,6 +110,11 @@ def cmd_paper(args: argparse.Namespace) -> int:
                                    after_run=functools.partial(_figures, gif=not args.no_gif))
     finally:
         bar.close()
+    if not args.no_replay:  # after every run: each replay shows the scene's oracle run beside it
+        folders = [out / run.scene / run.label for run in plan]
+        with ProcessPoolExecutor(max(1, min(args.jobs, len(plan)))) as pool:
+            list(tqdm(pool.map(_replay, folders, [run.scene for run in plan]), total=len(plan),
+                      desc="3-D replays", unit="run", file=sys.stderr, ascii=".#"))
     for scene, summaries in results.items():
         _table(scene, summaries, out)
     print(f"written {out / 'summary.json'} (and {out}/<scene>/summary.json)")

@@ -12,6 +12,7 @@ from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.viz.figures import make_figures
+from previewctl.viz.replay import REPLAY_NAME, write_replay
 
 
 def add_parser(commands: Commands) -> None:
@@ -31,6 +32,8 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--continue-after-collision", action="store_true",
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
+    run.add_argument("--view", action="store_true",
+                     help=f"also write the 3-D replay (OUT/{REPLAY_NAME}, opens from disk in a browser)")
     run.set_defaults(func=cmd_run)
 
 
@@ -49,6 +52,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     gif = False if args.no_gif else None
     with atomic_folder(out) as folder:  # the old folder stays whole until the new one is
         written = [*save_run(result, folder), *make_figures(result, scenario, folder, gif=gif)]
+        if args.view:
+            written.append(write_replay(result, folder / REPLAY_NAME, scenario=scenario))
     npz_path, json_path, *figures = [out / p.relative_to(folder) for p in written]
 
     def metre(value: float | None) -> str:

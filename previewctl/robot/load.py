@@ -132,14 +132,30 @@ def load_robot(
 # --------------------------------------------------------------------------------------- loading
 
 
-Collision = Callable[[pin.Model], pin.GeometryModel]
-"""Builds the full collision model for the full kinematic model (only once the arm has been accepted)."""
+GeometryBuilder = Callable[[pin.Model, pin.GeometryType], pin.GeometryModel]
+"""Builds the full geometry model of a kind (collision or visual) for the full kinematic model (only once the
+arm has been accepted)."""
+
+
+def load_visual(
+    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]] = ()
+) -> tuple[pin.Model, pin.GeometryModel]:
+    """The full (unreduced) model of ``source`` and its visual geometry (meshes with their file paths).
+
+    ``source`` and ``package_dirs`` are as in :func:`load_robot`; the model has every joint, locked or not.
+    A URDF without ``<visual>`` elements gives its collision geometry instead, so the arm can still be drawn.
+    """
+    _, model, build = _load_source(source, package_dirs)
+    visual = build(model, pin.GeometryType.VISUAL)
+    if visual.ngeoms == 0:
+        visual = build(model, pin.GeometryType.COLLISION)
+    return model, visual
 
 
 def _load_source(
     source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
-) -> tuple[str, pin.Model, Collision]:
-    """Resolve ``source`` to (name, full kinematic model, its collision-model builder)."""
+) -> tuple[str, pin.Model, GeometryBuilder]:
+    """Resolve ``source`` to (name, full kinematic model, its geometry-model builder)."""
     if not isinstance(source, (str, os.PathLike)):
         raise RobotLoadError(f"robot source must be a URDF path or a robot name (a string), got {source!r}")
     text = os.fspath(source)
@@ -157,7 +173,7 @@ def _load_source(
     return text, *_load_example_robot(text)
 
 
-def _load_example_robot(name: str) -> tuple[pin.Model, Collision]:
+def _load_example_robot(name: str) -> tuple[pin.Model, GeometryBuilder]:
     """An example-robot-data robot: straight from its URDF when its loader does nothing else (no visual
     meshes, no SRDF: 2-20x faster), else through the loader. A floating base its loader adds is left out:
     it would be locked at the identity anyway."""
@@ -181,10 +197,11 @@ def _load_example_robot(name: str) -> tuple[pin.Model, Collision]:
             wrapper = robots_loader.load(name)
     except (ImportError, ValueError, RuntimeError, OSError, AssertionError) as exc:
         raise RobotLoadError(f"example-robot-data could not load {name!r}: {exc}") from exc
-    return wrapper.model, lambda model: wrapper.collision_model
+    return wrapper.model, lambda model, kind: (
+        wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model)
 
 
-def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tuple[pin.Model, Collision]:
+def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tuple[pin.Model, GeometryBuilder]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
     try:
         root = ET.parse(path).getroot()
@@ -202,20 +219,21 @@ def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tu
     except (ValueError, RuntimeError) as exc:
         raise RobotLoadError(f"URDF file {str(path)!r} could not be loaded: {exc}") from exc
 
-    def collision(full: pin.Model) -> pin.GeometryModel:
+    def geometry(full: pin.Model, kind: pin.GeometryType) -> pin.GeometryModel:
         try:
-            return pin.buildGeomFromUrdf(full, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
+            return pin.buildGeomFromUrdf(full, str(path), kind, package_dirs=dirs)
         except (ValueError, RuntimeError) as exc:
-            raise RobotLoadError(f"URDF file {str(path)!r}: its collision geometry could not be loaded: {exc}") from exc
+            raise RobotLoadError(f"URDF file {str(path)!r}: its {str(kind).split('.')[-1].lower()} geometry could "
+                                 f"not be loaded: {exc}") from exc
 
-    return model, collision
+    return model, geometry
 
 
 # --------------------------------------------------------------------------------- chain and tip
 
 
 def _reduce(
-    name: str, model: pin.Model, collision: Collision, lock: Sequence[str] | None
+    name: str, model: pin.Model, collision: GeometryBuilder, lock: Sequence[str] | None
 ) -> tuple[pin.Model, pin.GeometryModel, HandFrames]:
     """The arm: the model with its floating base and ``lock`` joints (default: the end-effector joints, see
     :mod:`previewctl.robot.chain`) locked at neutral, and the frames that guide the default hand.
@@ -232,7 +250,7 @@ def _reduce(
             raise UnknownNameError("joint", joint_name, model.names[1:])
     split = split_joints(name, model, lock)
     frames = hand_frames(model, split)
-    geometry = collision(model)
+    geometry = collision(model, pin.GeometryType.COLLISION)
     if split.locked:
         try:
             model, geometry = pin.buildReducedModel(model, geometry, list(split.locked), pin.neutral(model))
