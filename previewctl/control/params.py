@@ -102,6 +102,8 @@ class ControllerParams(Checked):
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
+        limit_gain: ``K_l`` of the joint-limit avoidance in the null space [1/s] (0 disables it).
+        limit_margin: the avoidance acts within this fraction of a joint's range from either limit [-].
     """
 
     gain: Gains = (1.0,)
@@ -124,6 +126,8 @@ class ControllerParams(Checked):
     settle_frames: Count = 15
     track_radius: Positive = 0.5
     execution: ExecutionMode = "pseudoinverse"
+    limit_gain: NonNegative = 1.0
+    limit_margin: Annotated[Finite, interval(0, 0.5, "[)")] = 0.1
 
     def check(self) -> None:
         """The GA settings together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option,
