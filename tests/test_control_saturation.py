@@ -12,9 +12,12 @@ from previewctl.control.params import ControllerParams
 from previewctl.control.saturation import saturate, task_scaling
 from previewctl.control.tracking import damped_pseudo_inverse, limit_avoidance, track, velocity_box
 from previewctl.index.amsi import null_space_projector
+from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import scenario_from_dict
 from previewctl.types import Array
 
 
@@ -151,3 +154,22 @@ def test_limit_avoidance_is_minus_the_gradient_of_the_margin_cost(kinova: Robot)
     np.testing.assert_allclose(push, -2.0 * gradient, atol=1e-6)
     assert push[1] > 0 and push[2] < 0 and np.count_nonzero(push) == 2  # only the two joints in their margin
     assert not limit_avoidance(kinova, q, replace(params, limit_gain=0.0)).any()
+
+
+def test_kinova_keeps_its_hand_on_the_path_with_joint_5_held_at_its_limit(kinova: Robot) -> None:
+    # issue 13's case: minimum-norm tracking drives joint 5 into its 0.524 rad lower limit; clamping it
+    # alone left the hand 43 mm off the path, the other joints can hold it
+    start = kinova.configuration_from_angles(np.array([2.48, 2.783, 3.645, -2.988, 0.574, 2.633]))
+    end = kinova.configuration_from_angles(np.array([1.887, 2.739, 3.466, -2.678, -0.026, 1.981]))
+    hands = kinematics(kinova, np.stack([start, end])).tip_position
+    scenario = scenario_from_dict({
+        "robot": {"source": "kinova", "q0": start.tolist()},
+        "path": {"waypoints": hands.tolist(), "duration": 4.0},
+        "controller": {"name": "none"},
+        "timing": {"duration": 4.5},
+    })
+    run = simulate(scenario, exact_evaluator=Evaluator(scenario.robot, scenario.scene))
+    joint5 = kinova.angles_of(run.q)[:, 4]
+    assert joint5.min() == pytest.approx(kinova.joints.lower[4], abs=1e-9), "joint 5 should reach its limit"
+    assert (joint5 >= kinova.joints.lower[4] - 1e-9).all()
+    assert run.hand_error.max() < 1e-3
