@@ -81,6 +81,7 @@ def run_paper(
     scenario: Scenario | None = None,
     progress: Callable[[str], Callable[[float, float], None]] | None = None,
     after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
+    tolerance: float | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Run one scene with each controller; write each run and ``summary.json``.
 
@@ -91,6 +92,7 @@ def run_paper(
         scenario: the scene (default :func:`canonical_scenario`, the Table-3 fit).
         progress: ``progress(name)`` returns the progress callback of that controller's run.
         after_run: called after each run with (name, scenario, result, folder), e.g. to draw figures.
+        tolerance: largest hand error [m] of a successful run (default: the scenario's).
 
     Returns:
         The summary per controller (also written, atomically, to ``out_dir/summary.json``).
@@ -100,7 +102,8 @@ def run_paper(
     summaries: dict[str, dict[str, Any]] = {}
     for name in controllers:
         run_scenario = with_controller(base, name)
-        result = simulate(run_scenario, name, progress=progress(name) if progress else None, seed=seed)
+        result = simulate(run_scenario, name, progress=progress(name) if progress else None, seed=seed,
+                          tolerance=tolerance)
         folder = out / name
         save_run(result, folder)
         if after_run is not None:
@@ -120,6 +123,7 @@ def run_paper_scenes(
     seed: int | None = None,
     progress: Callable[[str, str], Callable[[float, float], None]] | None = None,
     after_run: Callable[[str, Scenario, RunResult, Path], None] | None = None,
+    tolerance: float | None = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
     """:func:`run_paper` on each canonical scene, into ``out_dir/<scene>/<controller>/``.
 
@@ -131,6 +135,7 @@ def run_paper_scenes(
         seed: random seed (default: each scenario's).
         progress: ``progress(scene, controller)`` returns the progress callback of that run.
         after_run: as in :func:`run_paper`.
+        tolerance: as in :func:`run_paper`.
 
     Returns:
         ``{scene: {controller: summary}}`` (also written, atomically, to ``out_dir/summary.json``).
@@ -147,7 +152,8 @@ def run_paper_scenes(
     for scene, scenario in zip(scenes, loaded, strict=True):
         per_run = None if progress is None else functools.partial(progress, scene)
         results[scene] = run_paper(
-            out / scene, controllers=controllers, seed=seed, scenario=scenario, progress=per_run, after_run=after_run
+            out / scene, controllers=controllers, seed=seed, scenario=scenario, progress=per_run, after_run=after_run,
+            tolerance=tolerance,
         )
     text = (json.dumps(results, indent=2) + "\n").encode("utf-8")
     out.mkdir(parents=True, exist_ok=True)

@@ -32,6 +32,9 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
     frame = 0.033                  # camera frame [s] (one GA generation per frame)
     duration = 5.0                 # simulated time [s] (default: path end)
 
+    [verdict]
+    tolerance = 0.005              # largest hand error [m] of a successful run (and collision-free)
+
     [index]                        # AMSI: length_unit [m] (default 0.01), weights a_i
     [potential]                    # influence_distance [m], gain, collision_value
     [output]                       # figures = ["strobe", "S", "clearance", "error"], gif = true, strobe_poses = 12
@@ -70,11 +73,12 @@ from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_tables
 from previewctl.scene.motion import rpy_to_matrix
 from previewctl.scene.shapes import Scene
-from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing
+from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing, Verdict
 from previewctl.types import Array
 from previewctl.validation import show, validate
 
-__all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "load_scenario", "scenario_from_dict"]
+__all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "Verdict", "load_scenario",
+           "scenario_from_dict"]
 
 START_TOLERANCE = 0.01
 """Largest distance [m] allowed between the hand at ``q0`` and the path start."""
@@ -98,6 +102,7 @@ class Scenario:
         index: AMSI parameters.
         potential: obstacle potential parameters.
         seed: random seed for the controllers.
+        verdict: when a run succeeds (collision-free and the hand error within a tolerance).
         outputs: figures and GIF.
         source: the file it was read from, or ``None``.
         description: free text.
@@ -114,6 +119,7 @@ class Scenario:
     index: IndexParams
     potential: Potential
     seed: int = 0
+    verdict: Verdict = field(default_factory=Verdict)
     outputs: OutputSpec = field(default_factory=OutputSpec)
     source: Path | None = None
     description: str = ""
@@ -208,6 +214,7 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
         index=IndexParams(**index.model_dump()),
         potential=Potential(**doc.potential.model_dump()),
         seed=doc.seed,
+        verdict=Verdict(**doc.verdict.model_dump()),
         outputs=OutputSpec(**doc.output.model_dump()),
         source=Path(source) if source is not None else None,
         description=doc.description,

@@ -17,6 +17,7 @@ dataclass fields by :func:`previewctl.validation.table`, so the file and the API
 ``[timing]``          :class:`Timing` (``duration`` defaults to the path's end)
 ``[index]``           :class:`~previewctl.index.amsi.IndexParams` but ``rank_tolerance``
 ``[potential]``       :class:`~previewctl.index.potential.Potential`
+``[verdict]``         :class:`Verdict`
 ``[output]``          :class:`OutputSpec`
 ====================  =====================================================================
 
@@ -119,6 +120,17 @@ class Timing(Checked):
 
 
 @dataclass(frozen=True)
+class Verdict(Checked):
+    """When a run succeeds: it is collision-free *and* the hand stays on its path.
+
+    Attributes:
+        tolerance: largest hand error ``|r_d − r|`` [m] of a successful run.
+    """
+
+    tolerance: Positive = 0.005
+
+
+@dataclass(frozen=True)
 class OutputSpec(Checked):
     """What ``previewctl run`` writes besides the log.
 
@@ -171,6 +183,7 @@ TimingTable: Any = table("timing", Timing, exclude=("duration",), duration=(Posi
 """``[timing]``: :class:`Timing`; ``duration`` defaults to the path's end."""
 IndexTable: Any = table("index", IndexParams, exclude=("rank_tolerance",))
 PotentialTable: Any = table("potential", Potential)
+VerdictTable: Any = table("verdict", Verdict)
 OutputTable: Any = table("output", OutputSpec)
 
 
@@ -187,4 +200,5 @@ class ScenarioFile(Section):
     timing: TimingTable = TimingTable()
     index: IndexTable = IndexTable()
     potential: PotentialTable = PotentialTable()
+    verdict: VerdictTable = VerdictTable()
     output: OutputTable = OutputTable()
