@@ -33,8 +33,11 @@ from previewctl import (
     load_robot,
     load_scene,
 )
+from previewctl.index.evaluator import Evaluator
 from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
 from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -577,3 +580,40 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
     shipped, nq = run.stdout.split()
     assert Path(shipped).resolve() == (tmp_path / "site" / "previewctl" / "robots").resolve()
     assert nq == "4"
+
+
+# ---------------------------------------------------------------------------- no collision geometry
+
+VISUAL_ONLY_ARM = """<?xml version="1.0"?>
+<robot name="visual_only">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="upper"><visual><origin xyz="0.25 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.03" length="0.5"/></geometry></visual></link>
+  <joint name="j2" type="revolute"><parent link="upper"/><child link="fore"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="fore"><visual><origin xyz="0.25 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.03" length="0.5"/></geometry></visual></link>
+  <joint name="j3" type="revolute"><parent link="fore"/><child link="hand"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="hand"><visual><geometry><sphere radius="0.02"/></geometry></visual></link>
+  <joint name="tip_joint" type="fixed"><parent link="hand"/><child link="tip"/><origin xyz="0.1 0 0"/></joint>
+  <link name="tip"/>
+</robot>
+"""
+
+
+def test_an_arm_without_collision_geometry_is_refused(tmp_path: Path) -> None:
+    urdf = tmp_path / "visual_only.urdf"
+    urdf.write_text(VISUAL_ONLY_ARM)
+    with pytest.raises(RobotLoadError, match=r"robot 'visual_only' has no collision geometry on its moving links "
+                       r"\(no <collision> elements\).*collision_from_visual=True"):
+        load_robot(urdf)
+    # the explicit opt-in guards the visual cylinders: a ball through the forearm collides
+    robot = load_robot(urdf, collision_from_visual=True)
+    assert robot.guarded_links == ("upper", "fore")
+    q = np.zeros(robot.nq)
+    ball = Scene((Obstacle("ball", Sphere(0.05), Static(np.array([0.75, 0.0, 0.0]))),))
+    check = Evaluator(robot, ball)(q[None, :])
+    assert check.collision[0] and check.link_distances[0].tolist()[1] < 0 < check.link_distances[0].tolist()[0]

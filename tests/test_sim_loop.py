@@ -293,7 +293,7 @@ def test_success_needs_no_collision_and_the_hand_within_tolerance(
     both = simulate(crash, tolerance=1e-12).summary()
     assert both["failure"] == "collision and hand error"
     assert both["error_time"] < both["collision_time"]
-    with pytest.raises(PreviewctlError, match="tolerance must be > 0, got -0.001"):
+    with pytest.raises(PreviewctlError, match=r"tolerance must be > 0, got -0\.001"):
         simulate(scenario, tolerance=-0.001)
 
 

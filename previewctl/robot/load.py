@@ -77,6 +77,7 @@ def load_robot(
     guarded_links: Sequence[str] | Literal["all", "intermediate"] = "intermediate",
     geometry: Geometry = "convex",
     package_dirs: Sequence[str | os.PathLike[str]] = (),
+    collision_from_visual: bool = False,
 ) -> Robot:
     """Load an arm and prepare it for avoidance-manipulability evaluation.
 
@@ -92,17 +93,22 @@ def load_robot(
         geometry: ``"convex"`` (convex hulls, capsules for cylinders), ``"capsules"`` (an enclosing
             capsule per mesh or cylinder) or ``"mesh"`` (exact URDF).
         package_dirs: folders to resolve ``package://`` mesh paths (URDF files only).
+        collision_from_visual: use the ``<visual>`` geometry as collision geometry (an explicit
+            opt-in for arms whose URDF has no ``<collision>`` elements).
 
     Raises:
-        RobotLoadError: missing or malformed file, no movable joint, missing mesh.
+        RobotLoadError: missing or malformed file, no movable joint, missing mesh, no collision
+            geometry on the moving links (without ``collision_from_visual``).
         UnknownNameError: unknown robot, frame, joint or link name.
     """
     if geometry not in GEOMETRY_CHOICES:
         raise UnknownNameError("geometry choice", geometry, GEOMETRY_CHOICES)
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
-    name, model, collision = _load_source(source, package_dirs)
+    kind = pin.GeometryType.VISUAL if collision_from_visual else pin.GeometryType.COLLISION
+    name, model, collision = _load_source(source, package_dirs, kind)
     model, collision = _reduce(name, model, collision, lock)
+    _require_moving_geometry(name, collision, collision_from_visual)
     tip_frame = tip if tip is not None else _default_tip(model)
     if not model.existFrame(tip_frame):
         raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
@@ -123,18 +129,18 @@ def load_robot(
 
 
 def _load_source(
-    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
+    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]], kind: pin.GeometryType
 ) -> tuple[str, pin.Model, pin.GeometryModel]:
-    """Resolve ``source`` to (name, full model, full collision model)."""
+    """Resolve ``source`` to (name, full model, full geometry model of ``kind``: collision or visual)."""
     text = os.fspath(source)
     shipped = shipped_robots_dir() / f"{text}.urdf"
     if shipped.is_file():
-        return text, *_load_urdf(shipped, package_dirs)
+        return text, *_load_urdf(shipped, package_dirs, kind)
     if text.endswith(".urdf") or os.sep in text or Path(text).suffix:
         path = Path(text)
         if not path.is_file():
             raise RobotLoadError(f"URDF file {text!r} does not exist")
-        return path.stem, *_load_urdf(path, package_dirs)
+        return path.stem, *_load_urdf(path, package_dirs, kind)
     known = example_robot_names()
     if text not in known:
         raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
@@ -142,11 +148,29 @@ def _load_source(
 
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         wrapper = example_robot_data.load(text)
-    return text, wrapper.model, wrapper.collision_model
+    geometry = wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model
+    return text, wrapper.model, geometry
+
+
+def _require_moving_geometry(name: str, collision: pin.GeometryModel, from_visual: bool) -> None:
+    """Refuse an arm whose moving links carry no geometry: its clearance would read 'no obstacle near'.
+
+    Raises:
+        RobotLoadError: no geometry attached to a moving joint.
+    """
+    if any(g.parentJoint != 0 for g in collision.geometryObjects):
+        return
+    if from_visual:
+        raise RobotLoadError(f"robot {name!r} has neither collision nor visual geometry on its moving links")
+    raise RobotLoadError(
+        f"robot {name!r} has no collision geometry on its moving links (no <collision> elements), so no "
+        "collision could ever be detected; add <collision> elements to the URDF, or load it with "
+        "collision_from_visual=True (scenario: robot.collision_from_visual = true) to use its visual geometry"
+    )
 
 
 def _load_urdf(
-    path: Path, package_dirs: Sequence[str | os.PathLike[str]]
+    path: Path, package_dirs: Sequence[str | os.PathLike[str]], kind: pin.GeometryType
 ) -> tuple[pin.Model, pin.GeometryModel]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
     try:
@@ -162,7 +186,7 @@ def _load_urdf(
             raise RobotLoadError(f"URDF file {str(path)!r}: mesh file {filename!r} not found (searched {dirs})")
     try:
         model = pin.buildModelFromUrdf(str(path))
-        collision = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.COLLISION, package_dirs=dirs)
+        collision = pin.buildGeomFromUrdf(model, str(path), kind, package_dirs=dirs)
     except (ValueError, RuntimeError) as exc:
         raise RobotLoadError(f"URDF file {str(path)!r} could not be loaded: {exc}") from exc
     return model, collision

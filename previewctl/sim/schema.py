@@ -79,6 +79,7 @@ class RobotSpec:
     control_points: tuple[Text, ...] | None = None
     geometry: Geometry = "convex"
     package_dirs: tuple[Text, ...] = ()
+    collision_from_visual: Flag = False
 
     def load(self, geometry: Geometry | None = None) -> Robot:
         """Load the robot, optionally with another ``geometry``."""
@@ -91,6 +92,7 @@ class RobotSpec:
             guarded_links=self.guarded_links,
             geometry=geometry or self.geometry,
             package_dirs=self.package_dirs,
+            collision_from_visual=self.collision_from_visual,
         )
 
 
