@@ -15,6 +15,7 @@ else:  # pragma: no cover - Python 3.10
     pass
 from previewctl.robot.model import Robot
 from previewctl.scene.shapes import Scene
+from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array
 
 
@@ -40,10 +41,17 @@ class Clearance:
             shape = obstacle.shape.geometry()
             obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), shape)
             self._obstacle_ids.append(self.geometry.addGeometryObject(obj))
-        pair_links, pair_obstacles = [], []
+        solids = [SolidMesh.of(g.geometry) if isinstance(g.geometry, coal.BVHModelBase) else None
+                  for g in robot.collision_model.geometryObjects]
+        pair_links: list[int] = []
+        pair_obstacles: list[int] = []
+        self._solid_pairs: list[tuple[int, SolidMesh, int, int]] = []  # (pair, solid, robot geometry, obstacle)
         for g in range(n_robot):
             for k, o in enumerate(self._obstacle_ids):
                 self.geometry.addCollisionPair(pin.CollisionPair(g, o))
+                solid = solids[g]
+                if solid is not None:
+                    self._solid_pairs.append((len(pair_links), solid, g, o))
                 pair_links.append(self._link_of_geom[g])
                 pair_obstacles.append(k)
         self.pair_links = np.array(pair_links, dtype=int)
@@ -71,11 +79,20 @@ class Clearance:
     def pair_distances(self, data: pin.Data) -> list[float]:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
 
-        A plain list: a batch collects one per configuration and converts them to an array once.
+        Mesh geometry counts as solid: an obstacle inside a link mesh gets a negative distance
+        (:mod:`previewctl.scene.solid`). A plain list: a batch collects one per configuration and
+        converts them to an array once.
         """
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
-        return [result.min_distance for result in self._results]
+        distances = [result.min_distance for result in self._results]
+        placements, objects = self.data.oMg, self.geometry.geometryObjects
+        for pair, solid, g, o in self._solid_pairs:
+            if distances[pair] > 0.0:
+                distances[pair] = solid.solid_distance(distances[pair], placements[g],
+                                                       self._results[pair].getNearestPoint2(),
+                                                       objects[o].geometry, placements[o])
+        return distances
 
     def per_link(self, pair_distances: Array) -> Array:
         """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""
