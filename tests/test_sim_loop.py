@@ -92,7 +92,7 @@ def test_log_contents(short_run: tuple[Scenario, RunResult]) -> None:
     scenario, run = short_run
     T = scenario.timing.steps + 1
     assert run.steps == T and run.q.shape == (T, 4) and run.qdot.shape == (T, 4)
-    assert run.link_distances.shape == (T, 3) and run.link_names == ("link1", "link2", "link3")
+    assert run.link_distances.shape == (T, 4) and run.link_names == ("link1", "link2", "link3", "link4")
     np.testing.assert_allclose(run.t, np.arange(T) * 0.01)
     np.testing.assert_allclose(run.desired[:, :2], scenario.path.position(run.t), atol=1e-12)
     np.testing.assert_allclose(run.hand_error, np.linalg.norm(run.desired - run.hand, axis=1))

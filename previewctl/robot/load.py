@@ -11,9 +11,9 @@ example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
   otherwise ``position``; ``pose`` (6 rows) on request.
 * control points: the distinct joint origins along the chain that move (for planar4 the tips of
   links 1-3, as in the paper).
-* guarded links: the paper's "intermediate links" -- every moving link but the hand's -- are the
-  ones whose clearance enters the potential and the collision check (``guarded_links="all"``
-  adds the hand's link).
+* guarded links: every moving link's clearance enters the potential and the collision check
+  (``guarded_links="intermediate"`` leaves out the hand's link, the paper's "intermediate links").
+  The hand's links may touch an obstacle marked as the work surface, and nothing else.
 * geometry: ``"convex"`` replaces meshes by their convex hulls and cylinders by capsules (a
   conservative cover, 20-40x cheaper distances); ``"capsules"`` replaces every mesh and cylinder by
   its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
@@ -74,7 +74,7 @@ def load_robot(
     lock: Sequence[str] | None = None,
     task: Task | None = None,
     control_points: Sequence[str] | None = None,
-    guarded_links: Sequence[str] | Literal["all", "intermediate"] = "intermediate",
+    guarded_links: Sequence[str] | Literal["all", "intermediate"] = "all",
     geometry: Geometry = "convex",
     package_dirs: Sequence[str | os.PathLike[str]] = (),
     collision_from_visual: bool = False,
@@ -88,8 +88,8 @@ def load_robot(
         task: ``"planar"``, ``"position"`` or ``"pose"``; default: planar if the arm is planar.
         control_points: joint names whose origins are control points; default: distinct moving
             joint origins along the chain.
-        guarded_links: body names whose geometry counts for clearance, or ``"intermediate"``
-            (every moving link but the hand's, the default) or ``"all"`` (every moving link).
+        guarded_links: body names whose geometry counts for clearance, or ``"all"`` (every moving
+            link, the default) or ``"intermediate"`` (every moving link but the hand's, the paper's).
         geometry: ``"convex"`` (convex hulls, capsules for cylinders), ``"capsules"`` (an enclosing
             capsule per mesh or cylinder) or ``"mesh"`` (exact URDF).
         package_dirs: folders to resolve ``package://`` mesh paths (URDF files only).

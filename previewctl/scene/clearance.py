@@ -22,6 +22,9 @@ from previewctl.types import Array
 class Clearance:
     """Distances between a robot's guarded geometry and a scene, through one Pinocchio geometry model.
 
+    Every guarded link is paired with every obstacle, except the hand's links with a work surface
+    (:class:`~previewctl.scene.shapes.Obstacle`).
+
     Attributes:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
@@ -46,8 +49,11 @@ class Clearance:
         pair_links: list[int] = []
         pair_obstacles: list[int] = []
         self._solid_pairs: list[tuple[int, SolidMesh, int, int]] = []  # (pair, solid, robot geometry, obstacle)
+        hand = [robot.guarded_links.index(link) for link in robot.hand_links]
         for g in range(n_robot):
             for k, o in enumerate(self._obstacle_ids):
+                if scene.obstacles[k].work_surface and self._link_of_geom[g] in hand:
+                    continue  # the hand may touch the object it works on
                 self.geometry.addCollisionPair(pin.CollisionPair(g, o))
                 solid = solids[g]
                 if solid is not None:
