@@ -24,7 +24,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "types", "files", "validation"),
     ("path", "scene.motion", "scene.shapes", "scene.schema", "scene.file", "scene.solid", "robot.joints", "planar",
      "planar.chain", "planar.kernels", "planar.distance"),
-    ("robot.model", "robot.geometry", "kinematics", "scene.clearance"),
+    ("robot.model", "robot.geometry", "robot.reach", "kinematics", "scene.clearance"),
     ("index", "planar.arm", "robot.load"),
     ("search", "planar.redundancy"),
     ("control",),

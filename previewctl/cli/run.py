@@ -33,6 +33,9 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--tolerance", type=float,
                      help="largest hand error [m] of a successful run (default: the scenario's [verdict] "
                      "tolerance, 0.005)")
+    run.add_argument("--q0", choices=["auto"],
+                     help="'auto': start from the best collision-free configuration with the hand at the first "
+                     "waypoint (global exploration) instead of the scenario's q0")
     run.add_argument("--continue-after-collision", action="store_true",
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
@@ -41,7 +44,7 @@ def add_parser(commands: Commands) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, auto_start=args.q0 == "auto")
     name = args.controller or scenario.controller.name
     out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-{name}"
     bar = ProgressBar()

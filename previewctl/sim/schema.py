@@ -75,7 +75,7 @@ class RobotSpec:
     tip: Text | None = None
     lock: tuple[Text, ...] | None = None
     task: Task | None = None
-    guarded_links: tuple[Text, ...] | Literal["all", "intermediate"] = "intermediate"
+    guarded_links: tuple[Text, ...] | Literal["all", "intermediate"] = "all"
     control_points: tuple[Text, ...] | None = None
     geometry: Geometry = "convex"
     package_dirs: tuple[Text, ...] = ()
@@ -163,9 +163,10 @@ class _OneStart(Section):
         return self
 
 
-RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(Configuration | None, None),
+RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(Configuration | Literal["auto"] | None, None),
                         q0_deg=(Configuration | None, None))
-"""``[robot]``: how to load the arm and its initial configuration ``q0`` [rad] or ``q0_deg`` [deg]."""
+"""``[robot]``: how to load the arm and its initial configuration ``q0`` [rad] or ``q0_deg`` [deg];
+``q0 = "auto"``: the best collision-free configuration with the hand at the first waypoint."""
 
 
 class PathTable(Section):
