@@ -400,6 +400,8 @@ def test_q0_auto_starts_from_the_best_collision_free_configuration(planar4: Robo
     best = explore(scenario.robot, evaluator, PLANAR_START).best
     np.testing.assert_allclose(scenario.q0, best.q)
     assert evaluator(scenario.q0).S[0] == pytest.approx(best.S) and best.S > 0
+    with pytest.raises(ScenarioError, match=r"robot.q0 must be a list of numbers \[rad\] or \"auto\", got 'automatic'"):
+        scenario_from_dict(planar_doc(robot={"source": "planar4", "q0": "automatic"}))
     # the file's q0 off the path: refused, with the way out in the message
     with pytest.raises(ScenarioError, match=r"robot.q0 puts the hand at \[3\., 0\.\] m, 1\.5100 m from the path start"
                        r".*set q0 = \"auto\" \(previewctl run --q0 auto\)"):

@@ -45,7 +45,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, get_args
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidatorFunctionWrapHandler, WrapValidator, model_validator
 
 from previewctl.control.params import GA_SETTINGS, ControllerName, ControllerParams
 from previewctl.errors import ParameterError
@@ -54,7 +54,7 @@ from previewctl.index.potential import Potential
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Geometry, Robot, Task
 from previewctl.scene.schema import Angles, ObstacleTable
-from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, table
+from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, show, table
 
 Figure = Literal["strobe", "S", "clearance", "error"]
 FIGURES: tuple[Figure, ...] = get_args(Figure)
@@ -163,7 +163,17 @@ class _OneStart(Section):
         return self
 
 
-RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(Configuration | Literal["auto"] | None, None),
+def _auto_or_angles(value: Any, handler: ValidatorFunctionWrapHandler) -> Any:
+    """``"auto"`` as is; anything else checked as a :data:`Configuration` (its messages name the entry)."""
+    if isinstance(value, str) and value != "auto":
+        raise invalid("must be a list of numbers [rad] or \"auto\", got {value}", value=show(value))
+    return value if value == "auto" else handler(value)
+
+
+StartConfiguration = Annotated[Configuration, WrapValidator(_auto_or_angles)]
+"""``q0``: joint angles [rad], or ``"auto"``."""
+
+RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(StartConfiguration | None, None),
                         q0_deg=(Configuration | None, None))
 """``[robot]``: how to load the arm and its initial configuration ``q0`` [rad] or ``q0_deg`` [deg];
 ``q0 = "auto"``: the best collision-free configuration with the hand at the first waypoint."""
