@@ -24,7 +24,7 @@ from previewctl.control.params import (
 )
 from previewctl.control.preview import PreviewController, wrapped_difference
 from previewctl.control.reach import ReachController
-from previewctl.control.tracking import TrackingController, apply_limits, damped_pseudo_inverse
+from previewctl.control.tracking import TrackingController, damped_pseudo_inverse, track
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
@@ -138,7 +138,7 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
 # ----------------------------------------------------------------------------------- limits
 
 
-def test_velocity_limits_by_uniform_scaling_in_a_run() -> None:
+def test_velocity_limits_keep_the_hand_on_its_direction_in_a_run() -> None:
     doc = planar_doc(controller={"name": "none", "velocity_scale": 0.05, "feedback_gain": 20.0,
                                  "execution": "pseudoinverse"},
                      path={"waypoints": [PLANAR_START, [1.0, 0.3]], "duration": 1.0}, timing={"duration": 2.0})
@@ -149,23 +149,29 @@ def test_velocity_limits_by_uniform_scaling_in_a_run() -> None:
     assert (np.abs(run.qdot) <= limit * (1 + 1e-12)).all()
     scaled = run.velocity_scale < 1
     assert scaled.any()
-    # same direction as requested
-    a, b = run.qdot[scaled], run.qdot_requested[scaled]
-    cos = (a * b).sum(1) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
-    np.testing.assert_allclose(cos, 1.0, atol=1e-12)
+    # the task is scaled along its direction (SNS): the hand moves toward where eq. 19 asked, only slower
+    robot = scenario.robot
+    for k in np.flatnonzero(scaled)[:20]:
+        J = kinematics(robot, run.q[k][None, :]).J_task[0]
+        asked = J @ damped_pseudo_inverse(J, 0.05, 0.05)[0] @ J @ run.qdot_requested[k]
+        moved = J @ run.qdot[k]
+        assert moved @ asked / np.linalg.norm(moved) / np.linalg.norm(asked) == pytest.approx(1.0, abs=1e-9)
 
 
-def test_apply_limits_clamps_towards_position_limits(panda_scenario: Scenario) -> None:
+def test_a_joint_at_its_position_limit_is_held_and_the_others_track(panda_scenario: Scenario) -> None:
     robot = panda_scenario.robot
     q = np.array(PANDA_Q0)
     q[3] = robot.upper_limits[3] - 1e-3  # elbow 1 mm-rad below its upper limit
-    qdot = np.zeros(7)
-    qdot[3], qdot[0] = 1.0, 0.5
-    out, scale, clamped = apply_limits(robot, q, qdot, 0.01)
-    assert clamped and scale == 1.0
+    J = kinematics(robot, q[None, :]).J_task[0]
+    row = np.linalg.pinv(J)[3]
+    velocity = 0.3 * row / (row @ row)  # asks the elbow for +0.3 rad/s, three times what is left to its limit
+    start = kinematics(robot, q[None, :]).tip_position[0]
+    state = state_for(robot, q, HandPath(np.array([start, start + velocity]), 1.0))
+    out, info = track(robot, 0.0, q, state, np.zeros(7), ControllerParams(feedback_gain=0.0))
+    assert info.qdot_task[3] == pytest.approx(0.3)
+    assert info.clamped and info.scale == 1.0
     assert q[3] + out[3] * 0.01 == pytest.approx(robot.upper_limits[3])
-    assert out[0] == 0.5
-    assert qdot[3] == 1.0  # the input is not modified
+    np.testing.assert_allclose(J @ out, velocity, atol=1e-12)
 
 
 def test_position_limits_hold_when_the_null_space_drive_pushes_past_them(panda_scenario: Scenario) -> None:

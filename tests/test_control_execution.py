@@ -134,17 +134,20 @@ def test_an_obstacle_faster_than_the_arm_is_reported_as_slack(planar4: Robot) ->
 
 
 def test_a_joint_at_its_limit_is_saturated_and_the_others_hold_the_hand(panda: Robot) -> None:
-    """Joint 1 at its upper limit; the minimum-norm hand motion would push it further. The pseudo-inverse clamps it
-    and the hand leaves its line; the QP holds joint 1 and moves the hand exactly with the other six."""
+    """Joint 1 at its upper limit and a reference (no limit-avoidance term) that pushes it further: the QP holds
+    joint 1 and moves the hand exactly with the other six (clamping joint 1 alone would lose the hand)."""
     q = np.array([2.8973, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])  # joint 1 at its upper limit
     velocity = np.array([0.1, -0.1, 0.0])
-    path = _hand_path(panda, q, velocity)
-    state = _state(panda, q, path)
-    pinv_qdot, info = track(panda, 0.0, q, state, np.zeros(panda.nv), PINV)
-    assert info.qdot_task[0] > 0 and info.clamped  # eq. 19 wants joint 1 to go on
+    state = _state(panda, q, _hand_path(panda, q, velocity))
+    params = ControllerParams(limit_gain=0.0)
+    _, info = track(panda, 0.0, q, state, np.zeros(panda.nv), dataclasses.replace(params, execution="pseudoinverse"))
+    reference = info.qdot_task + info.qdot_null
+    assert reference[0] > 0.05  # eq. 19 wants joint 1 to go on
     J = state.kin.J_task[0]
-    assert np.linalg.norm(J @ pinv_qdot - velocity) > 0.01  # and loses the hand
-    qdot, report = QPExecution(panda, pc.Scene(), ControllerParams())(0.0, q, state, info)
+    clamped = reference.copy()
+    clamped[0] = 0.0
+    assert np.linalg.norm(J @ clamped - velocity) > 0.01  # clamping it alone would lose the hand
+    qdot, report = QPExecution(panda, pc.Scene(), params)(0.0, q, state, info)
     assert qdot[0] <= 1e-12 and report.clamped
     np.testing.assert_allclose(J @ qdot, velocity, atol=1e-3 * np.linalg.norm(velocity))
 

@@ -4,6 +4,7 @@ validation, and batch against one-at-a-time evaluation."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import fields
 
 import coal
@@ -63,7 +64,7 @@ def test_sphere_distances_closed_form(
     planar4: Robot, method: str, center: tuple[float, float, float], radius: float
 ) -> None:
     """planar4 at q = 0 lies along +x: link i's axis runs from (0.75 i, 0) to (0.75 (i + 1), 0)."""
-    assert planar4.guarded_links == ("link1", "link2", "link3")
+    assert planar4.guarded_links == ("link1", "link2", "link3", "link4")
     result = evaluate(planar4, Scene((sphere_at(center, radius),)), np.zeros(4), method=method)
     p = np.array(center)
     expected = np.array(
@@ -71,10 +72,10 @@ def test_sphere_distances_closed_form(
             point_segment_distance(p, np.array([LINK * i, 0.0, 0.0]), np.array([LINK * (i + 1), 0.0, 0.0]))
             - radius
             - RADIUS
-            for i in range(3)
+            for i in range(4)
         ]
     )
-    assert result.link_distances.shape == (1, 3)
+    assert result.link_distances.shape == (1, 4)
     np.testing.assert_allclose(result.link_distances[0], expected, atol=1e-9)
     np.testing.assert_allclose(result.min_distance, [expected.min()], atol=1e-9)
     assert not result.collision[0]
@@ -86,25 +87,41 @@ def test_halfspace_distance_closed_form(planar4: Robot, method: str) -> None:
     """The half-space y <= -0.2 is 0.2 - 0.03 from every link of the stretched arm."""
     floor = Obstacle("floor", previewctl.Halfspace((0.0, 1.0, 0.0), -0.2))
     result = evaluate(planar4, Scene((floor,)), np.zeros(4), method=method)
-    np.testing.assert_allclose(result.link_distances, [[0.17, 0.17, 0.17]], atol=1e-9)
+    np.testing.assert_allclose(result.link_distances, [[0.17] * 4], atol=1e-9)
     np.testing.assert_allclose(result.min_distance, [0.17], atol=1e-9)
     # the same half-space given by its placement instead of its offset
     moved = Obstacle("floor", previewctl.Halfspace((0.0, 1.0, 0.0), 0.0), Static(np.array([5.0, -0.2, 0.0])))
     np.testing.assert_allclose(
-        evaluate(planar4, Scene((moved,)), np.zeros(4), method=method).link_distances, [[0.17, 0.17, 0.17]], atol=1e-9
+        evaluate(planar4, Scene((moved,)), np.zeros(4), method=method).link_distances, [[0.17] * 4], atol=1e-9
     )
 
 
 @pytest.mark.parametrize("method", METHODS)
 def test_sphere_distance_bent_arm(planar4: Robot, method: str) -> None:
-    """q = (pi/2, -pi/2, 0, 0): link 1 goes up the y axis to (0, 0.75), links 2-3 along +x from there."""
+    """q = (pi/2, -pi/2, 0, 0): link 1 goes up the y axis to (0, 0.75), links 2-4 along +x from there."""
     q = np.array([np.pi / 2, -np.pi / 2, 0.0, 0.0])
     p = np.array([0.9, 0.3, 0.0])
     result = evaluate(planar4, Scene((sphere_at(tuple(p), 0.1),)), q, method=method)
-    ends = [np.array(v, dtype=float) for v in ([0, 0, 0], [0, 0.75, 0], [0.75, 0.75, 0], [1.5, 0.75, 0])]
-    expected = [point_segment_distance(p, ends[i], ends[i + 1]) - 0.1 - RADIUS for i in range(3)]
+    corners = ([0, 0, 0], [0, 0.75, 0], [0.75, 0.75, 0], [1.5, 0.75, 0], [2.25, 0.75, 0])
+    ends = [np.array(v, dtype=float) for v in corners]
+    expected = [point_segment_distance(p, ends[i], ends[i + 1]) - 0.1 - RADIUS for i in range(4)]
     np.testing.assert_allclose(result.link_distances[0], expected, atol=1e-9)
     np.testing.assert_allclose(result.tip_position, [[2.25, 0.75, 0.0]], atol=1e-12)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_the_hand_link_may_touch_the_work_surface_and_nothing_else(planar4: Robot, method: str) -> None:
+    """The stretched arm's hand link (link 4, x in [2.25, 3]) dips 2 cm into a ball at (2.6, 0.1)."""
+    ball = sphere_at((2.6, 0.1, 0.0), 0.09)
+    touching = evaluate(planar4, Scene((ball,)), np.zeros(4), method=method)
+    assert touching.collision[0] and touching.link_distances[0, 3] == pytest.approx(-0.02, abs=1e-9)
+    surface = dataclasses.replace(ball, work_surface=True)
+    worked = evaluate(planar4, Scene((surface,)), np.zeros(4), method=method)
+    assert not worked.collision[0] and worked.link_distances[0, 3] == np.inf
+    np.testing.assert_allclose(worked.link_distances[0, :3], touching.link_distances[0, :3], atol=1e-12)
+    # link 3 (x in [1.5, 2.25]) is still guarded against the work surface
+    deep = dataclasses.replace(surface, motion=Static(np.array([2.2, 0.1, 0.0])))
+    assert evaluate(planar4, Scene((deep,)), np.zeros(4), method=method).collision[0]
 
 
 # ------------------------------------------------------------------------------ Coal cross-check
@@ -281,10 +298,10 @@ def test_potential_shape(planar4: Robot) -> None:
     q = np.zeros(4)
     potential = Potential(influence_distance=0.2, gain=0.5)
     d = 0.08
-    # a sphere only near link 3: centre above (2.0, .) so links 1-2 are out of range
-    result = evaluate(planar4, Scene((sphere_at((2.0, 0.13 + d, 0.0), 0.1),)), q, potential=potential)
+    # a sphere only near link 3: centre above (1.8, .) so links 1-2 and 4 are out of range
+    result = evaluate(planar4, Scene((sphere_at((1.8, 0.13 + d, 0.0), 0.1),)), q, potential=potential)
     np.testing.assert_allclose(result.link_distances[0, 2], d, atol=1e-12)
-    assert result.link_distances[0, 1] > 0.2
+    assert result.link_distances[0, 1] > 0.2 and result.link_distances[0, 3] > 0.2
     phi = 0.5 * ((0.2 - d) / 0.2) ** 2
     np.testing.assert_allclose(result.S, result.amsi * (1.0 - phi), rtol=1e-12)
 
@@ -381,7 +398,7 @@ def test_batch_equals_single_planar4(planar4: Robot, method: str, t: float) -> N
     Q = np.random.default_rng(31).uniform(-np.pi, np.pi, size=(40, 4))
     batch = evaluate(planar4, scene, Q, t, method=method)
     assert batch.S.shape == (40,)
-    assert batch.link_distances.shape == (40, 3)
+    assert batch.link_distances.shape == (40, 4)
     for b in range(len(Q)):
         single = evaluate(planar4, scene, Q[b], t, method=method)
         assert single.S.shape == (1,)

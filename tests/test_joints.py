@@ -15,11 +15,13 @@ from previewctl.robot.joints import JointFacts
 from previewctl.robot.model import Robot
 
 # A base link, then a continuous joint (nq = 2, nv = 1), a revolute joint limited to +-1 rad, a prismatic
-# joint and a revolute joint limited to +-4 rad (more than a full turn).
+# joint and a revolute joint limited to +-4 rad (more than a full turn); a small ball on the last link
+# (an arm without collision geometry is refused).
 MIXED_URDF = """<?xml version="1.0"?>
 <robot name="mixed">
   <link name="base"/>
-  <link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/>
+  <link name="l1"/><link name="l2"/><link name="l3"/>
+  <link name="l4"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>
   <joint name="spin" type="continuous">
     <parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
     <limit effort="1" velocity="2.0"/>

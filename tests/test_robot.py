@@ -33,8 +33,11 @@ from previewctl import (
     load_robot,
     load_scene,
 )
+from previewctl.index.evaluator import Evaluator
 from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
 from previewctl.robot.model import Robot, Task
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -46,13 +49,14 @@ def test_planar4_defaults(planar4: Robot) -> None:
     assert planar4.nq == planar4.nv == 4
     assert planar4.joint_names == ("joint1", "joint2", "joint3", "joint4")
     assert planar4.control_points == ("joint2", "joint3", "joint4")
-    assert planar4.guarded_links == ("link1", "link2", "link3")
+    assert planar4.guarded_links == ("link1", "link2", "link3", "link4")
+    assert planar4.hand_links == ("link4",)
     assert planar4.task == "planar"
     assert planar4.tip_frame == "tip"
     assert planar4.planar is not None
     assert tuple(planar4.structural_ranks) == (1, 2, 1)
     assert all(isinstance(g.geometry, coal.Capsule) for g in planar4.collision_model.geometryObjects)
-    assert [g.geometry.radius for g in planar4.collision_model.geometryObjects] == pytest.approx([0.03] * 3)
+    assert [g.geometry.radius for g in planar4.collision_model.geometryObjects] == pytest.approx([0.03] * 4)
     np.testing.assert_allclose(planar4.lower_limits, -2 * np.pi)
     np.testing.assert_allclose(planar4.upper_limits, 2 * np.pi)
     data = planar4.model.createData()
@@ -74,8 +78,11 @@ def test_panda_defaults(panda: Robot) -> None:
     assert panda.planar is None
     assert len(panda.structural_ranks) == len(panda.control_points) > 0
     assert set(panda.control_points) <= set(panda.joint_names)
-    assert "panda_hand" not in panda.guarded_links
-    assert all(isinstance(g.geometry, coal.Convex) for g in panda.collision_model.geometryObjects)
+    hand = ("panda_link7", "panda_hand", "panda_leftfinger", "panda_rightfinger")
+    assert panda.guarded_links[-4:] == panda.hand_links == hand  # every link guarded, the hand's included
+    # meshes become convex hulls; the fingers' boxes stay boxes
+    assert all(isinstance(g.geometry, coal.Box if "finger" in g.name else coal.Convex)
+               for g in panda.collision_model.geometryObjects)
     assert avoidance(panda, panda.neutral()).J_task.shape == (3, 7)
 
 
@@ -97,11 +104,11 @@ def test_kinova_continuous_joints(kinova: Robot) -> None:
             np.testing.assert_allclose(np.hypot(Q[:, joint.idx_q], Q[:, joint.idx_q + 1]), 1.0)
 
 
-def test_guarded_links_all_adds_hand_link() -> None:
-    robot = load_robot("planar4", guarded_links="all")
-    assert robot.guarded_links == ("link1", "link2", "link3", "link4")
-    assert len(robot.collision_model.geometryObjects) == 4
-    assert evaluate(robot, None, np.zeros(4)).link_distances.shape == (1, 4)
+def test_guarded_links_intermediate_leaves_out_the_hand_link() -> None:
+    robot = load_robot("planar4", guarded_links="intermediate")
+    assert robot.guarded_links == ("link1", "link2", "link3")
+    assert len(robot.collision_model.geometryObjects) == 3
+    assert evaluate(robot, None, np.zeros(4)).link_distances.shape == (1, 3)
 
 
 def test_custom_control_points_and_links() -> None:
@@ -113,8 +120,10 @@ def test_custom_control_points_and_links() -> None:
 
 
 def test_geometry_choice(planar4: Robot, panda: Robot, panda_mesh: Robot) -> None:
-    assert all(isinstance(g.geometry, coal.BVHModelBase) for g in panda_mesh.collision_model.geometryObjects)
-    assert all(isinstance(g.geometry, coal.Convex) for g in panda.collision_model.geometryObjects)
+    assert all(isinstance(g.geometry, coal.Box if "finger" in g.name else coal.BVHModelBase)
+               for g in panda_mesh.collision_model.geometryObjects)
+    assert all(isinstance(g.geometry, coal.Box if "finger" in g.name else coal.Convex)
+               for g in panda.collision_model.geometryObjects)
     assert panda_mesh.guarded_links == panda.guarded_links
     # the hull covers the mesh: from any outside point it is at most as far away
     rng = np.random.default_rng(0)
@@ -162,6 +171,9 @@ def test_capsule_geometry_covers_the_meshes(panda_mesh: Robot) -> None:
     for capsule, mesh in zip(
         capsules.collision_model.geometryObjects, panda_mesh.collision_model.geometryObjects, strict=True
     ):
+        if isinstance(mesh.geometry, coal.Box):  # the fingers' boxes are kept
+            assert isinstance(capsule.geometry, coal.Box)
+            continue
         assert isinstance(capsule.geometry, coal.Capsule)
         assert capsule.parentFrame == mesh.parentFrame
         M, C = mesh.placement, capsule.placement  # both in the parent joint frame
@@ -434,7 +446,7 @@ def test_load_valid_scene(tmp_path: Path, planar4: Robot) -> None:
         ('[[obstacles]]\nname = "c"\nshape = "cone"\nradius = 0.1\n', r"'cone'.*sphere"),
         ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = 0.1\ncolour = "red"\n',
          r"unknown key 'obstacles\[0\]\.colour'; valid keys in obstacles\[0\] \(shape = 'sphere'\): "
-         r"name, shape, radius, position"),
+         r"name, work_surface, shape, radius, position"),
         ('[[obstacles]]\nname = "c"\nshape = "sphere"\nradius = -0.1\n', r"radius.*-0\.1"),
         ('[[obstacles]]\nname = "c"\nshape = "box"\nsize = [0.1, 0.0, 0.1]\n', r"size.*0\.0"),
         ('[[obstacles]]\nname = "c"\nshape = "mesh"\npath = "nope.stl"\n', r"nope\.stl"),
@@ -581,3 +593,40 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
     shipped, nq = run.stdout.split()
     assert Path(shipped).resolve() == (tmp_path / "site" / "previewctl" / "robots").resolve()
     assert nq == "4"
+
+
+# ---------------------------------------------------------------------------- no collision geometry
+
+VISUAL_ONLY_ARM = """<?xml version="1.0"?>
+<robot name="visual_only">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="upper"><visual><origin xyz="0.25 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.03" length="0.5"/></geometry></visual></link>
+  <joint name="j2" type="revolute"><parent link="upper"/><child link="fore"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="fore"><visual><origin xyz="0.25 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.03" length="0.5"/></geometry></visual></link>
+  <joint name="j3" type="revolute"><parent link="fore"/><child link="hand"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="hand"><visual><geometry><sphere radius="0.02"/></geometry></visual></link>
+  <joint name="tip_joint" type="fixed"><parent link="hand"/><child link="tip"/><origin xyz="0.1 0 0"/></joint>
+  <link name="tip"/>
+</robot>
+"""
+
+
+def test_an_arm_without_collision_geometry_is_refused(tmp_path: Path) -> None:
+    urdf = tmp_path / "visual_only.urdf"
+    urdf.write_text(VISUAL_ONLY_ARM)
+    with pytest.raises(RobotLoadError, match=r"robot 'visual_only' has no collision geometry on its moving links "
+                       r"\(no <collision> elements\).*collision_from_visual=True"):
+        load_robot(urdf)
+    # the explicit opt-in guards the visual cylinders: a ball through the forearm collides
+    robot = load_robot(urdf, collision_from_visual=True)
+    assert robot.guarded_links == ("upper", "fore", "hand")
+    q = np.zeros(robot.nq)
+    ball = Scene((Obstacle("ball", Sphere(0.05), Static(np.array([0.75, 0.0, 0.0]))),))
+    check = Evaluator(robot, ball)(q[None, :])
+    assert check.collision[0] and check.link_distances[0].tolist()[1] < 0 < check.link_distances[0].tolist()[0]

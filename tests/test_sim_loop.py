@@ -92,7 +92,7 @@ def test_log_contents(short_run: tuple[Scenario, RunResult]) -> None:
     scenario, run = short_run
     T = scenario.timing.steps + 1
     assert run.steps == T and run.q.shape == (T, 4) and run.qdot.shape == (T, 4)
-    assert run.link_distances.shape == (T, 3) and run.link_names == ("link1", "link2", "link3")
+    assert run.link_distances.shape == (T, 4) and run.link_names == ("link1", "link2", "link3", "link4")
     np.testing.assert_allclose(run.t, np.arange(T) * 0.01)
     np.testing.assert_allclose(run.desired[:, :2], scenario.path.position(run.t), atol=1e-12)
     np.testing.assert_allclose(run.hand_error, np.linalg.norm(run.desired - run.hand, axis=1))
@@ -270,3 +270,51 @@ def test_cli_runs_reach(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["controller"] == "reach" and not summary["collided"]
     assert summary["max_hand_error"] < 2e-3
+
+
+# -------------------------------------------------------------------------------------- verdict
+
+
+def test_success_needs_no_collision_and_the_hand_within_tolerance(
+    crash: Scenario, short_run: tuple[Scenario, RunResult]
+) -> None:
+    scenario, run = short_run
+    summary = run.summary()
+    assert summary["success"] and summary["failure"] is None and summary["tolerance"] == 0.005
+    assert summary["error_time"] is None and summary["max_hand_error"] <= 0.005
+    # the same run judged with a tolerance below its largest error fails on the hand error
+    tight = 0.5 * summary["max_hand_error"]
+    judged = simulate(scenario, "gradient", tolerance=tight).summary()
+    first = int(np.flatnonzero(run.hand_error > tight)[0])
+    assert not judged["success"] and judged["failure"] == "hand error" and not judged["collided"]
+    assert judged["error_time"] == pytest.approx(run.t[first]) and judged["tolerance"] == tight
+    collided = simulate(crash).summary()
+    assert not collided["success"] and collided["failure"] == "collision" and collided["error_time"] is None
+    both = simulate(crash, tolerance=1e-12).summary()
+    assert both["failure"] == "collision and hand error"
+    assert both["error_time"] < both["collision_time"]
+    with pytest.raises(PreviewctlError, match=r"tolerance must be > 0, got -0\.001"):
+        simulate(scenario, tolerance=-0.001)
+
+
+def test_scenario_tolerance_is_read_and_checked() -> None:
+    assert scenario_from_dict(planar_doc(verdict={"tolerance": 0.002})).verdict.tolerance == 0.002
+    with pytest.raises(PreviewctlError, match=r"verdict.tolerance must be > 0, got 0"):
+        scenario_from_dict(planar_doc(verdict={"tolerance": 0}))
+
+
+def test_cli_run_exit_code_says_a_run_failed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = tmp_path / "crash.toml"
+    scenario.write_text(
+        'name = "crash"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
+        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
+        "[timing]\nduration = 0.2\n[output]\nfigures = []\ngif = false\n"
+    )
+    assert main(["run", str(scenario), "--out", str(tmp_path / "ok")]) == 0
+    assert "success                   yes" in capsys.readouterr().out
+    assert main(["run", str(scenario), "--out", str(tmp_path / "tight"), "--tolerance", "1e-12"]) == 3
+    out = capsys.readouterr().out
+    assert "success                   NO: hand error > 0.00 mm from t = 0.0" in out
+    assert load_summary(tmp_path / "tight")["failure"] == "hand error"
+    assert main(["run", str(scenario), "--tolerance", "-1"]) == 2
+    assert "tolerance must be > 0, got -1.0" in capsys.readouterr().err

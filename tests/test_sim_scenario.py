@@ -3,16 +3,24 @@
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pydantic
 import pytest
+from helpers import PLANAR_START, planar_doc
 
 from previewctl.cli.main import main
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ParameterError, PreviewctlError, ScenarioError
+from previewctl.index.evaluator import Evaluator
+from previewctl.kinematics import kinematics
+from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
+from previewctl.robot.reach import reach_of
+from previewctl.search.explore import explore
 from previewctl.sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -336,3 +344,76 @@ def test_cli_run_missing_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "does not exist" in err[0]
+
+
+# ------------------------------------------------------------------------- reach and start
+
+TWO_LINK = """<?xml version="1.0"?>
+<robot name="two_link">
+  <link name="base"/>
+  <joint name="joint1" type="revolute"><parent link="base"/><child link="link1"/>
+    <axis xyz="0 0 1"/><limit lower="-6.3" upper="6.3" effort="1" velocity="1"/></joint>
+  <link name="link1"><collision><origin xyz="0.5 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.02" length="1.0"/></geometry></collision></link>
+  <joint name="joint2" type="revolute"><parent link="link1"/><child link="link2"/>
+    <origin xyz="1.0 0 0"/><axis xyz="0 0 1"/><limit lower="-6.3" upper="6.3" effort="1" velocity="1"/></joint>
+  <link name="link2"><collision><origin xyz="0.2 0 0" rpy="0 1.5707963267948966 0"/>
+    <geometry><cylinder radius="0.02" length="0.4"/></geometry></collision></link>
+  <joint name="tip_joint" type="fixed"><parent link="link2"/><child link="tip"/><origin xyz="0.4 0 0"/></joint>
+  <link name="tip"/>
+</robot>
+"""
+
+
+def test_a_waypoint_beyond_reach_is_refused_before_simulating() -> None:
+    doc = planar_doc(path={"waypoints": [PLANAR_START, [5.0, 5.0]], "duration": 1.0})
+    with pytest.raises(ScenarioError, match=re.escape(
+            "path.waypoints[1] = [5.0, 5.0] m is 7.0711 m from the base of robot 'planar4' (its first joint, at "
+            "[0.0, 0.0] m), beyond its reach of 3.0000 m")):
+        scenario_from_dict(doc)
+
+
+def test_the_reach_shell_of_a_planar_arm_is_exact_and_its_hole_is_checked(tmp_path: Path) -> None:
+    urdf = tmp_path / "two_link.urdf"
+    urdf.write_text(TWO_LINK)
+    robot = load_robot(urdf)
+    reach = reach_of(robot)
+    assert (reach.inner, reach.outer) == (pytest.approx(0.6), pytest.approx(1.4))  # |1.0 - 0.4|, 1.0 + 0.4
+    # closed form reached: the hand over a grid of both joints spans exactly [0.6, 1.4] m
+    grid = np.stack(np.meshgrid(np.linspace(-np.pi, np.pi, 73), np.linspace(-np.pi, np.pi, 73)), -1).reshape(-1, 2)
+    distances = np.linalg.norm(kinematics(robot, grid).tip_position, axis=1)
+    assert distances.min() == pytest.approx(0.6, abs=1e-12) and distances.max() == pytest.approx(1.4, abs=1e-12)
+    start = kinematics(robot, np.array([[0.0, 0.5]])).tip_position[0, :2]
+    doc = {"robot": {"source": str(urdf), "q0": [0.0, 0.5]},
+           "path": {"waypoints": [start.tolist(), [-1.0, 0.0]], "duration": 2.0}}
+    with pytest.raises(ScenarioError, match=r"path segment 0-1 passes 0\.\d+ m from the base of robot 'two_link' "
+                       r"\(at \[0\.0, 0\.0\] m\); the hand cannot come closer than 0\.6000 m"):
+        scenario_from_dict(doc)
+
+
+def test_q0_auto_starts_from_the_best_collision_free_configuration(planar4: Robot) -> None:
+    ball = {"name": "ball", "shape": "sphere", "radius": 0.2, "position": [1.0, 1.3]}
+    scenario = scenario_from_dict(planar_doc(robot={"source": "planar4", "q0": "auto"}, obstacles=[ball]))
+    hand = kinematics(planar4, scenario.q0[None, :]).tip_position[0, :2]
+    np.testing.assert_allclose(hand, PLANAR_START, atol=1e-6)
+    evaluator = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
+    best = explore(scenario.robot, evaluator, PLANAR_START).best
+    np.testing.assert_allclose(scenario.q0, best.q)
+    assert evaluator(scenario.q0).S[0] == pytest.approx(best.S) and best.S > 0
+    with pytest.raises(ScenarioError, match=r"robot.q0 must be a list of numbers \[rad\] or \"auto\", got 'automatic'"):
+        scenario_from_dict(planar_doc(robot={"source": "planar4", "q0": "automatic"}))
+    # the file's q0 off the path: refused, with the way out in the message
+    with pytest.raises(ScenarioError, match=r"robot.q0 puts the hand at \[3\., 0\.\] m, 1\.5100 m from the path start"
+                       r".*set q0 = \"auto\" \(previewctl run --q0 auto\)"):
+        scenario_from_dict(planar_doc(robot={"source": "planar4", "q0": [0.0, 0.0, 0.0, 0.0]}))
+
+
+def test_cli_run_q0_auto(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "off.toml"
+    path.write_text('[robot]\nsource = "planar4"\nq0 = [0.0, 0.0, 0.0, 0.0]\n'
+                    "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 0.2\n"
+                    "[output]\nfigures = []\ngif = false\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert "--q0 auto" in capsys.readouterr().err
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--q0", "auto"]) == 0
+    assert "success                   yes" in capsys.readouterr().out

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import TextIO, TypeAlias
+from typing import Any, TextIO, TypeAlias
 
 import numpy as np
 from tqdm import tqdm
@@ -14,6 +14,9 @@ from previewctl.errors import PreviewctlError
 from previewctl.robot.model import GEOMETRY_CHOICES
 
 EXIT_USAGE = 2
+EXIT_FAILED_RUN = 3
+"""Exit code of ``previewctl run`` when the run completed but failed: a collision, or a hand error over
+the tolerance (2 stays bad input)."""
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -48,6 +51,18 @@ def seed_value(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
     return value
+
+
+def verdict_text(summary: dict[str, Any], digits: int = 3) -> str:
+    """``"yes"``, or ``"NO: "`` and what failed first, from a run's summary (times with ``digits`` decimals)."""
+    if summary["success"]:
+        return "yes"
+    parts = []
+    if summary["collided"]:
+        parts.append(f"collision at t = {summary['collision_time']:.{digits}f} s ({summary['collision_link']})")
+    if summary["error_time"] is not None:
+        parts.append(f"hand error > {summary['tolerance'] * 1e3:.2f} mm from t = {summary['error_time']:.{digits}f} s")
+    return "NO: " + "; ".join(parts)
 
 
 def finite_or_none(value: float) -> float | None:

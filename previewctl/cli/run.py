@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from previewctl.cli.common import Commands, ProgressBar, seed_value
+from previewctl.cli.common import EXIT_FAILED_RUN, EXIT_USAGE, Commands, ProgressBar, seed_value, verdict_text
 from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
@@ -21,7 +21,10 @@ def add_parser(commands: Commands) -> None:
         "run",
         help="simulate a scenario file and write its log and figures",
         description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
-        "(run.npz, summary.json) and the figures go to --out.",
+        "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is collision-free and "
+        "its largest hand error is at most the tolerance. Exit status: 0 success, "
+        f"{EXIT_FAILED_RUN} the run failed (a collision or a hand error over the tolerance), "
+        f"{EXIT_USAGE} bad input.",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
@@ -29,6 +32,12 @@ def add_parser(commands: Commands) -> None:
                      "DP's best motion, see reach-map)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
+    run.add_argument("--tolerance", type=float,
+                     help="largest hand error [m] of a successful run (default: the scenario's [verdict] "
+                     "tolerance, 0.005)")
+    run.add_argument("--q0", choices=["auto"],
+                     help="'auto': start from the best collision-free configuration with the hand at the first "
+                     "waypoint (global exploration) instead of the scenario's q0")
     run.add_argument("--continue-after-collision", action="store_true",
                      help="log collisions and keep going instead of stopping at the first one")
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
@@ -39,13 +48,13 @@ def add_parser(commands: Commands) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, auto_start=args.q0 == "auto")
     name = args.controller or scenario.controller.name
     out = check_output_folder(args.out or Path("out") / f"{scenario.name}-{name}")
     bar = ProgressBar()
     try:
         result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
-                          seed=args.seed)
+                          seed=args.seed, tolerance=args.tolerance)
     finally:
         bar.close()
     summary = result.summary()
@@ -61,11 +70,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
                  if summary["collided"] else "yes")
+    error = f"{metre(summary['max_hand_error'])} (tolerance {metre(summary['tolerance'])})"
     rows = [
         ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
         ("controller", summary["controller"]),
+        ("success", verdict_text(summary)),
         ("collision-free", collision),
-        ("max hand error", metre(summary["max_hand_error"])),
+        ("max hand error", error),
         ("min clearance", metre(summary["min_clearance"])),
         ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
         ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
@@ -77,4 +88,4 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{'written':<26}{npz_path}, {json_path}")
     for figure in figures:
         print(f"{'':<26}{figure}")
-    return 0
+    return 0 if summary["success"] else EXIT_FAILED_RUN

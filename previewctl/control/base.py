@@ -48,14 +48,14 @@ class ControlInfo:
         desired_velocity: ``ṙ_d(t)`` [m/s], shape ``(3,)``.
         hand_position: the hand ``r`` at the configuration given [m], shape ``(3,)``.
         task_error: the task error fed back (``(m,)``: [m], and [rad] for the pose rows).
-        v: the null-space input, shape ``(nv,)``.
+        v: the null-space input, shape ``(nv,)``, joint-limit avoidance included.
         qdot_task: ``J#(ṙ_d + K_p e)`` [rad/s], shape ``(nv,)``.
         qdot_null: ``N v`` [rad/s], shape ``(nv,)``; ``J qdot_null = 0``.
         qdot_requested: ``qdot_task + null_scale · qdot_null``, before the limits [rad/s].
-        null_scale: the factor ``α`` in [0, 1] on the null-space term (task priority, see
+        null_scale: the factor in [0, 1] on the null-space term (task priority, see
             :mod:`previewctl.control.tracking`).
-        scale: the uniform velocity-limit scaling ``s`` in (0, 1].
-        clamped: whether a position limit clamped some joint velocity.
+        scale: the task scaling ``s`` in [0, 1] of the joint-limit saturation (1 = the whole task velocity).
+        clamped: whether a joint was saturated at a position or speed bound.
         damping: the damping ``λ`` used [m/rad].
         dt: the period the position limits were computed for [s].
         frame_due: whether this cycle started a camera frame (the searches ran one generation).

@@ -20,10 +20,11 @@ preview pull, a gradient or zero), the QP is
   motions translate the obstacles, so all their points share it). The row states
   ``ḋ_k ≥ −ξ (d_k − d_s)/(d_i − d_s)``: inside the influence distance ``d_i`` the approach speed falls
   linearly to zero at the safety distance ``d_s``.
-* Joint limits: the speed limits ``±velocity_scale · q̇max``; within ``limit_margin`` [rad] of a position
-  limit, the speed towards it shrinks linearly to zero at the limit (the joint brakes in time), and never
-  exceeds ``(limit − q)/dt``. A joint held at a limit is *saturated*: the QP re-solves the hand task with
-  the other joints, which is saturation in the null space (Flacco et al. 2012) done by the solver.
+* Joint limits: the speed limits ``±velocity_scale · q̇max``; within ``limit_margin`` (a fraction of the
+  joint's range) of a position limit, the speed towards it shrinks linearly to zero at the limit (the joint
+  brakes in time), and never exceeds ``(limit − q)/dt``. A joint held at a limit is *saturated*: the QP
+  re-solves the hand task with the other joints, which is saturation in the null space (Flacco et al. 2012)
+  done by the solver.
 * Infeasible constraints (e.g. an obstacle faster than the arm): the QP is solved again with one slack
   ``s_k ≥ 0`` per damper row, penalised by ``slack_weight · s_k²``; the largest slack [m/s] is reported.
 
@@ -122,13 +123,19 @@ class QPExecution:
 
     def bounds(self, q: Array, dt: float) -> tuple[Array, Array]:
         """Joint velocity bounds [rad/s] ``(nv,)`` each: speed limits, braking near the position limits."""
-        facts, margin = self.robot.joints, self.params.limit_margin
+        facts = self.robot.joints
         position = np.asarray(q, dtype=float)[facts.q_index]
+        with np.errstate(invalid="ignore"):
+            margin = self.params.limit_margin * (facts.upper - facts.lower)  # inf or nan for unlimited joints
+        braking = np.isfinite(margin) & (margin > 0)
         to_upper = np.where(np.isfinite(facts.upper), facts.upper - position, np.inf)
         to_lower = np.where(np.isfinite(facts.lower), position - facts.lower, np.inf)
         speed = np.where(np.isfinite(self.speed), self.speed, 1e3)  # a finite box for the solver
-        upper = np.minimum(speed * np.clip(to_upper / margin, 0.0, 1.0), np.maximum(to_upper, 0.0) / dt)
-        lower = -np.minimum(speed * np.clip(to_lower / margin, 0.0, 1.0), np.maximum(to_lower, 0.0) / dt)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            brake_up = np.where(braking, np.clip(to_upper / margin, 0.0, 1.0), 1.0)
+            brake_down = np.where(braking, np.clip(to_lower / margin, 0.0, 1.0), 1.0)
+        upper = np.minimum(speed * brake_up, np.maximum(to_upper, 0.0) / dt)
+        lower = -np.minimum(speed * brake_down, np.maximum(to_lower, 0.0) / dt)
         return lower, upper
 
     def __call__(self, t: float, q: Array, state: ControlState, info: ControlInfo) -> tuple[Array, ControlInfo]:

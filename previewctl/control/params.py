@@ -110,7 +110,9 @@ class ControllerParams(Checked):
         damper_gain: ``ξ`` [m/s], the approach speed a damper allows at the influence distance.
         influence_distance: ``d_i`` [m], link–obstacle distance below which a damper acts.
         safety_distance: ``d_s`` [m], the distance a damper never lets a link approach closer than; ``< d_i``.
-        limit_margin: [rad] (or [m]) from a position limit within which the QP brakes the joint.
+        limit_gain: ``K_l`` of the joint-limit avoidance in the null space [1/s] (0 disables it).
+        limit_margin: within this fraction of a joint's range from either limit [-], the null-space avoidance
+            acts and the QP brakes the joint towards the limit.
     """
 
     gain: Gains = (1.0,)
@@ -138,7 +140,8 @@ class ControllerParams(Checked):
     damper_gain: Positive = 1.0
     influence_distance: Positive = 0.3
     safety_distance: NonNegative = 0.02
-    limit_margin: Positive = 0.1
+    limit_gain: NonNegative = 1.0
+    limit_margin: Annotated[Finite, interval(0, 0.5, "[)")] = 0.1
 
     def check(self) -> None:
         """``previews`` matches ``weights``, ``safety_distance < influence_distance``, and the GA settings

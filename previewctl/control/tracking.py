@@ -19,12 +19,16 @@ Details:
 * Task priority: the null-space term is first scaled by the largest ``α`` in [0, 1] for which
   ``q̇_task + α N v`` respects the speed limits (``α = 0`` if ``q̇_task`` alone does not), so the
   avoidance motion never slows the hand down; ``α`` is reported as ``null_scale``.
-* Limits, in this order: (1) position limits -- each ``q̇_j`` is clamped to
-  ``[(lo_j − q_j)/dt, (hi_j − q_j)/dt]`` so that ``q + q̇ dt`` stays within the limits (joints with
-  ``nq = nv`` and finite limits only); (2) velocity limits -- the whole ``q̇`` is scaled by
-  ``s = min(1, min_j q̇max_j / |q̇_j|)``, which keeps its direction and never raises ``|q̇_j|`` above
-  ``velocity_scale · q̇max_j``. A non-finite or non-positive URDF speed limit counts as no limit.
-  Scaling after clamping keeps the position bounds (the interval contains 0).
+* Limits: every ``q̇_j`` must lie in the box ``[max((lo_j − q_j)/dt, −q̇max_j), min((hi_j − q_j)/dt,
+  q̇max_j)]`` (:func:`velocity_box`: ``q + q̇ dt`` stays within the position limits, ``|q̇_j|`` within
+  ``velocity_scale · q̇max_j``; a non-finite or non-positive URDF speed limit counts as no limit).
+  When the command above is inside the box it is applied unchanged. Otherwise the task is re-solved
+  by saturation in the null space (:mod:`previewctl.control.saturation`, Flacco et al. 2012): the
+  joint that leaves the box first is fixed at its bound and the task is solved again with the other
+  joints, repeatedly; if they cannot achieve it, the task velocity is scaled down along its direction
+  (``scale`` < 1). The null-space term is then projected on the free joints and scaled into the box.
+* Limit avoidance: ``v`` gets the term of :func:`limit_avoidance`, which pushes a joint away from a
+  position limit once it is within ``limit_margin`` of its range, before the box is ever reached.
 * For the preview modes the configuration error is taken in the tangent space,
   ``v = K_v Σ_i k_i (q̃_i ⊖ q)`` (``pin.difference``), which equals eq. 21 for ordinary joints because
   ``Σ k_i = 1``; for revolute joints whose range spans a full turn or more, each difference is
@@ -40,6 +44,7 @@ import pinocchio as pin
 
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.params import ControllerParams
+from previewctl.control.saturation import saturate
 from previewctl.errors import ParameterError
 from previewctl.index.amsi import null_space_projector
 from previewctl.path import HandPath
@@ -96,31 +101,40 @@ def effective_velocity_limits(robot: Robot, scale: float = 1.0) -> Array:
     return np.where(np.isfinite(limits) & (limits > 0), limits * scale, np.inf)
 
 
-def apply_limits(
-    robot: Robot, q: Array, qdot: Array, dt: float, velocity_scale: float = 1.0
-) -> tuple[Array, float, bool]:
-    """Enforce position limits (per-joint clamp) then velocity limits (uniform scaling).
+def velocity_box(robot: Robot, q: Array, dt: float, velocity_scale: float = 1.0) -> tuple[Array, Array]:
+    """Bounds ``low <= q̇ <= high`` [rad/s] of one period: position limits over ``dt`` and speed limits.
+
+    Each side is kept on its side of 0 (a joint found past a limit may stop, not be pushed further out).
 
     Args:
         robot: the arm.
         q: configuration ``(nq,)``.
-        qdot: requested joint velocity ``(nv,)`` [rad/s] (not modified).
         dt: control period [s].
         velocity_scale: fraction of the URDF speed limits allowed.
 
     Returns:
-        ``(q̇, s, clamped)``: the limited velocity, the scaling factor ``s`` in (0, 1] and whether a
-        position bound was active.
+        ``(low, high)``, each ``(nv,)``.
     """
     low, high = joint_velocity_bounds(robot, q, dt)
-    clamped_qdot = np.clip(qdot, low, high)
-    clamped = bool(np.any(clamped_qdot != qdot))
-    limits = effective_velocity_limits(robot, velocity_scale)
-    speed = np.abs(clamped_qdot)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratios = np.where(speed > limits, limits / speed, 1.0)
-    scale = float(ratios.min()) if ratios.size else 1.0
-    return clamped_qdot * scale, scale, clamped
+    speed = effective_velocity_limits(robot, velocity_scale)
+    return np.minimum(np.maximum(low, -speed), 0.0), np.maximum(np.minimum(high, speed), 0.0)
+
+
+def limit_avoidance(robot: Robot, q: Array, params: ControllerParams) -> Array:
+    """Null-space input [rad/s] ``(nv,)`` that steers away from position limits before they are hit.
+
+    ``−K_l ∇H`` of ``H = ½ Σ_j max(0, ρ_j − d_j)²`` over both limits of each joint with finite limits,
+    ``d_j`` the distance to the limit [rad] and ``ρ_j = limit_margin · (hi_j − lo_j)``: zero unless a
+    joint is within ``ρ_j`` of a limit, then ``K_l`` [1/s] times how deep it is in that margin.
+    """
+    facts = robot.joints
+    position = np.asarray(q, dtype=float)[facts.q_index]
+    bounded = np.isfinite(facts.lower) & np.isfinite(facts.upper)
+    margin = np.where(bounded, params.limit_margin * (facts.upper - facts.lower), 0.0)
+    with np.errstate(invalid="ignore"):
+        push_up = np.where(bounded, np.maximum(0.0, margin - (position - facts.lower)), 0.0)
+        push_down = np.where(bounded, np.maximum(0.0, margin - (facts.upper - position)), 0.0)
+    return np.asarray(params.limit_gain * (push_up - push_down), dtype=float)
 
 
 def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> float:
@@ -187,18 +201,25 @@ def track(
     else:
         error = (r_d - tip)[:m]
         feedforward = rdot_d[:m]
+    xdot = feedforward + params.feedback_gain * error
     J_sharp, lam = damped_pseudo_inverse(J, params.damping, params.singular_threshold)
-    qdot_task = J_sharp @ (feedforward + params.feedback_gain * error)
-    qdot_null = null_space_projector(J) @ v
+    qdot_task = J_sharp @ xdot
+    v_total = np.asarray(v, dtype=float) + limit_avoidance(robot, q, params)
+    qdot_null = null_space_projector(J) @ v_total
     null_scale = null_space_budget(qdot_task, qdot_null, effective_velocity_limits(robot, params.velocity_scale))
     requested = qdot_task + null_scale * qdot_null
-    qdot, scale, clamped = apply_limits(robot, q, requested, state.dt, params.velocity_scale)
+    low, high = velocity_box(robot, q, state.dt, params.velocity_scale)
+    qdot, scale, clamped = requested, 1.0, False
+    if not np.all((requested >= low) & (requested <= high)):
+        sat = saturate(J, xdot, v_total, low, high,
+                       lambda A: damped_pseudo_inverse(A, params.damping, params.singular_threshold)[0])
+        qdot, scale, null_scale, clamped = sat.qdot, sat.task_scale, sat.null_scale, bool(sat.saturated.any())
     info = ControlInfo(
         desired_position=r_d,
         desired_velocity=rdot_d,
         hand_position=tip,
         task_error=error,
-        v=np.array(v, dtype=float),
+        v=v_total,
         qdot_task=qdot_task,
         qdot_null=qdot_null,
         qdot_requested=requested,

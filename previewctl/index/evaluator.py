@@ -93,6 +93,8 @@ class Evaluator:
         self._planar_arm = (
             PlanarArm(robot.planar, robot.structural_ranks, self.index) if robot.planar is not None else None
         )
+        hand = {robot.guarded_links.index(link) for link in robot.hand_links}
+        self._hand_slots = [s for s, link in enumerate(robot.planar.link_index) if link in hand] if robot.planar else []
         # static obstacles: their planar kernels are built (and validated) once
         self._static_kernels = {
             i: planar_kernel(o, 0.0) for i, o in enumerate(self.scene.obstacles) if isinstance(o.motion, Static)
@@ -165,9 +167,12 @@ class Evaluator:
         distances = np.full((Q.shape[0], len(self.robot.guarded_links)), np.inf)
         if self.scene.obstacles:
             a, b = arm.link_segments(points, trig)
-            capsule_d = planar_kernels.apply(kernels[0], a, b, chain.link_radii)
-            for kernel in kernels[1:]:
-                np.minimum(capsule_d, planar_kernels.apply(kernel, a, b, chain.link_radii), out=capsule_d)
+            capsule_d = np.full((Q.shape[0], len(chain.link_index)), np.inf)
+            for kernel, obstacle in zip(kernels, self.scene.obstacles, strict=True):
+                d = planar_kernels.apply(kernel, a, b, chain.link_radii)
+                if obstacle.work_surface:
+                    d[:, self._hand_slots] = np.inf  # the hand may touch the object it works on
+                np.minimum(capsule_d, d, out=capsule_d)
             for slot, link in enumerate(chain.link_index):
                 np.minimum(distances[:, link], capsule_d[:, slot], out=distances[:, link])
         tip = np.zeros((Q.shape[0], 3))

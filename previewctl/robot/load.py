@@ -11,9 +11,9 @@ example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
   otherwise ``position``; ``pose`` (6 rows) on request.
 * control points: the distinct joint origins along the chain that move (for planar4 the tips of
   links 1-3, as in the paper).
-* guarded links: the paper's "intermediate links" -- every moving link but the hand's -- are the
-  ones whose clearance enters the potential and the collision check (``guarded_links="all"``
-  adds the hand's link).
+* guarded links: every moving link's clearance enters the potential and the collision check
+  (``guarded_links="intermediate"`` leaves out the hand's link, the paper's "intermediate links").
+  The hand's links may touch an obstacle marked as the work surface, and nothing else.
 * geometry: ``"convex"`` replaces meshes by their convex hulls and cylinders by capsules (a
   conservative cover, 20-40x cheaper distances); ``"capsules"`` replaces every mesh and cylinder by
   its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
@@ -76,9 +76,10 @@ def load_robot(
     lock: Sequence[str] | None = None,
     task: Task | None = None,
     control_points: Sequence[str] | None = None,
-    guarded_links: Sequence[str] | Literal["all", "intermediate"] = "intermediate",
+    guarded_links: Sequence[str] | Literal["all", "intermediate"] = "all",
     geometry: Geometry = "convex",
     package_dirs: Sequence[str | os.PathLike[str]] = (),
+    collision_from_visual: bool = False,
 ) -> Robot:
     """Load an arm and prepare it for avoidance-manipulability evaluation.
 
@@ -89,22 +90,27 @@ def load_robot(
         task: ``"planar"``, ``"position"`` or ``"pose"``; default: planar if the arm is planar.
         control_points: joint names whose origins are control points; default: distinct moving
             joint origins along the chain.
-        guarded_links: body names whose geometry counts for clearance, or ``"intermediate"``
-            (every moving link but the hand's, the default) or ``"all"`` (every moving link).
+        guarded_links: body names whose geometry counts for clearance, or ``"all"`` (every moving
+            link, the default) or ``"intermediate"`` (every moving link but the hand's, the paper's).
         geometry: ``"convex"`` (convex hulls, capsules for cylinders), ``"capsules"`` (an enclosing
             capsule per mesh or cylinder) or ``"mesh"`` (exact URDF).
         package_dirs: folders to resolve ``package://`` mesh paths (URDF files only).
+        collision_from_visual: use the ``<visual>`` geometry as collision geometry (an explicit
+            opt-in for arms whose URDF has no ``<collision>`` elements).
 
     Raises:
-        RobotLoadError: missing or malformed file, no movable joint, missing mesh.
+        RobotLoadError: missing or malformed file, no movable joint, missing mesh, no collision
+            geometry on the moving links (without ``collision_from_visual``).
         UnknownNameError: unknown robot, frame, joint or link name.
     """
     if geometry not in GEOMETRY_CHOICES:
         raise UnknownNameError("geometry choice", geometry, GEOMETRY_CHOICES)
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
-    name, model, collision = _load_source(source, package_dirs)
-    model, collision_model, hints = _reduce(name, model, collision, lock)
+    kind = pin.GeometryType.VISUAL if collision_from_visual else pin.GeometryType.COLLISION
+    name, model, build = _load_source(source, package_dirs)
+    model, collision_model, hints = _reduce(name, model, lambda full: build(full, kind), lock)
+    _require_moving_geometry(name, collision_model, collision_from_visual)
     tip_frame = tip if tip is not None else _default_tip(model, hints)
     if not model.existFrame(tip_frame):
         raise UnknownNameError("frame", tip_frame, sorted(f.name for f in model.frames))
@@ -201,6 +207,23 @@ def _load_example_robot(name: str) -> tuple[pin.Model, GeometryBuilder]:
         wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model)
 
 
+def _require_moving_geometry(name: str, collision: pin.GeometryModel, from_visual: bool) -> None:
+    """Refuse an arm whose moving links carry no geometry: its clearance would read 'no obstacle near'.
+
+    Raises:
+        RobotLoadError: no geometry attached to a moving joint.
+    """
+    if any(g.parentJoint != 0 for g in collision.geometryObjects):
+        return
+    if from_visual:
+        raise RobotLoadError(f"robot {name!r} has neither collision nor visual geometry on its moving links")
+    raise RobotLoadError(
+        f"robot {name!r} has no collision geometry on its moving links (no <collision> elements), so no "
+        "collision could ever be detected; add <collision> elements to the URDF, or load it with "
+        "collision_from_visual=True (scenario: robot.collision_from_visual = true) to use its visual geometry"
+    )
+
+
 def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tuple[pin.Model, GeometryBuilder]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
     try:
@@ -233,7 +256,7 @@ def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tu
 
 
 def _reduce(
-    name: str, model: pin.Model, collision: GeometryBuilder, lock: Sequence[str] | None
+    name: str, model: pin.Model, collision: Callable[[pin.Model], pin.GeometryModel], lock: Sequence[str] | None
 ) -> tuple[pin.Model, pin.GeometryModel, HandFrames]:
     """The arm: the model with its floating base and ``lock`` joints (default: the end-effector joints, see
     :mod:`previewctl.robot.chain`) locked at neutral, and the frames that guide the default hand.
@@ -250,7 +273,7 @@ def _reduce(
             raise UnknownNameError("joint", joint_name, model.names[1:])
     split = split_joints(name, model, lock)
     frames = hand_frames(model, split)
-    geometry = collision(model, pin.GeometryType.COLLISION)
+    geometry = collision(model)
     if split.locked:
         try:
             model, geometry = pin.buildReducedModel(model, geometry, list(split.locked), pin.neutral(model))

@@ -76,6 +76,13 @@ class Robot:
         return tuple(f.name for f in self.model.frames)
 
     @property
+    def hand_links(self) -> tuple[str, ...]:
+        """Guarded links that move with the hand (their geometry hangs on the tip frame's joint)."""
+        joint = self.model.frames[self.tip_frame_id].parentJoint
+        return tuple(dict.fromkeys(str(self.model.frames[g.parentFrame].name)
+                                   for g in self.collision_model.geometryObjects if g.parentJoint == joint))
+
+    @property
     def tip_frame_id(self) -> int:
         """Pinocchio id of the tip frame."""
         return int(self.model.getFrameId(self.tip_frame))

@@ -12,6 +12,7 @@ import pinocchio as pin
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
+from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array, IntArray
 
 
@@ -36,6 +37,9 @@ class Witnesses:
 class Clearance:
     """Distances between a robot's guarded geometry and a scene, through one Pinocchio geometry model.
 
+    Every guarded link is paired with every obstacle, except the hand's links with a work surface
+    (:class:`~previewctl.scene.shapes.Obstacle`).
+
     Attributes:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
@@ -56,10 +60,21 @@ class Clearance:
             shape = obstacle.shape.geometry()
             obj = pin.GeometryObject(f"obstacle:{obstacle.name}", 0, 0, obstacle.placement(0.0), shape)
             self._obstacle_ids.append(self.geometry.addGeometryObject(obj))
-        pair_links, pair_obstacles, pair_joints = [], [], []
+        solids = [SolidMesh.of(g.geometry) if isinstance(g.geometry, coal.BVHModelBase) else None
+                  for g in robot.collision_model.geometryObjects]
+        pair_links: list[int] = []
+        pair_obstacles: list[int] = []
+        pair_joints: list[int] = []
+        self._solid_pairs: list[tuple[int, SolidMesh, int, int]] = []  # (pair, solid, robot geometry, obstacle)
+        hand = [robot.guarded_links.index(link) for link in robot.hand_links]
         for g in range(n_robot):
             for k, o in enumerate(self._obstacle_ids):
+                if scene.obstacles[k].work_surface and self._link_of_geom[g] in hand:
+                    continue  # the hand may touch the object it works on
                 self.geometry.addCollisionPair(pin.CollisionPair(g, o))
+                solid = solids[g]
+                if solid is not None:
+                    self._solid_pairs.append((len(pair_links), solid, g, o))
                 pair_links.append(self._link_of_geom[g])
                 pair_obstacles.append(k)
                 pair_joints.append(int(self.geometry.geometryObjects[g].parentJoint))
@@ -91,11 +106,20 @@ class Clearance:
     def pair_distances(self, data: pin.Data) -> list[float]:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
 
-        A plain list: a batch collects one per configuration and converts them to an array once.
+        Mesh geometry counts as solid: an obstacle inside a link mesh gets a negative distance
+        (:mod:`previewctl.scene.solid`). A plain list: a batch collects one per configuration and
+        converts them to an array once.
         """
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
-        return [result.min_distance for result in self._results]
+        distances = [result.min_distance for result in self._results]
+        placements, objects = self.data.oMg, self.geometry.geometryObjects
+        for pair, solid, g, o in self._solid_pairs:
+            if distances[pair] > 0.0:
+                distances[pair] = solid.solid_distance(distances[pair], placements[g],
+                                                       self._results[pair].getNearestPoint2(),
+                                                       objects[o].geometry, placements[o])
+        return distances
 
     def witnesses(self, data: pin.Data, within: float = np.inf) -> tuple[IntArray, Witnesses]:
         """The pairs closer than ``within`` [m] for the joint placements in ``data``: their indices ``(R,)``

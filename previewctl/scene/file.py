@@ -88,7 +88,7 @@ def obstacle_from_table(spec: Any, where: str, base_dir: Path) -> Obstacle:
         motion = motion_from_table(spec.motion, f"{where}.motion")
     else:
         motion = Static(np.array(spec.position), rpy_to_matrix(spec.rpy))
-    return Obstacle(spec.name or where, kind(**values), motion)
+    return Obstacle(spec.name or where, kind(**values), motion, spec.work_surface)
 
 
 def scene_from_tables(tables: Sequence[Any], base_dir: Path = Path(".")) -> Scene:

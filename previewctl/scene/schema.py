@@ -93,10 +93,12 @@ MOTION_TYPES: tuple[str, ...] = tuple(get_args(m.model_fields["type"].annotation
 
 
 class Placement(Section):
-    """The keys every obstacle table has besides its shape's: ``name``, then (after the shape's keys)
-    ``position`` and ``rpy``, or ``motion``."""
+    """The keys every obstacle table has besides its shape's: ``name``, ``work_surface`` (see
+    :class:`~previewctl.scene.shapes.Obstacle`), then (after the shape's keys) ``position`` and ``rpy``,
+    or ``motion``."""
 
     name: Annotated[Text, Field(min_length=1)] | None = None
+    work_surface: Annotated[Flag, Field(description="the hand may touch it (the object it works on)")] = False
 
     @model_validator(mode="after")
     def _one_placement(self) -> Placement:

@@ -138,11 +138,16 @@ Shape = Sphere | Box | Capsule | Cylinder | Halfspace | Plane | Mesh
 
 @dataclass(frozen=True)
 class Obstacle:
-    """A named shape whose placement follows ``motion`` (static at the origin by default)."""
+    """A named shape whose placement follows ``motion`` (static at the origin by default).
+
+    ``work_surface``: the object the hand works on (the paper's target surface). The hand's own links
+    may touch it; every other link is still guarded against it, and the hand against everything else.
+    """
 
     name: str
     shape: Shape
     motion: Motion = field(default_factory=lambda: Static(np.zeros(3)))
+    work_surface: bool = False
 
     def placement(self, t: float = 0.0) -> pin.SE3:
         """World placement at time ``t`` [s]."""

@@ -34,6 +34,7 @@ class RunResult:
         dt: control period [s].
         joint_names: joint names, in ``q`` order.
         link_names: guarded link names, in ``link_distances`` column order.
+        tolerance: largest hand error [m] of a successful run (see :meth:`summary`).
         t: ``(T,)`` times [s].
         q: ``(T, nq)`` configurations [rad].
         qdot: ``(T, nv)`` applied joint velocities [rad/s] (0 on a colliding last step).
@@ -48,7 +49,7 @@ class RunResult:
         collision: ``(T,)`` exact collision flag.
         cycle_time: ``(T,)`` wall time of each control cycle (kinematics + command) [s].
         frame_due: ``(T,)`` whether a camera frame arrived at the step.
-        velocity_scale: ``(T,)`` uniform velocity-limit scaling applied (1 = unlimited).
+        velocity_scale: ``(T,)`` task scaling of the joint-limit saturation (1 = the whole task velocity).
         velocity_limits: ``(nv,)`` joint speed limits used [rad/s] (``inf`` = none).
         targets: ``(T, p, nq)`` the imaginary arms ``q~_i`` the controller steered toward (``p = 0``
             without previews; NaN where no command was computed, e.g. the colliding step).
@@ -63,6 +64,7 @@ class RunResult:
     dt: float
     joint_names: tuple[str, ...]
     link_names: tuple[str, ...]
+    tolerance: float
     t: Array
     q: Array
     qdot: Array
@@ -95,16 +97,28 @@ class RunResult:
         hits = np.flatnonzero(self.collision)
         return int(hits[0]) if hits.size else None
 
+    @property
+    def error_index(self) -> int | None:
+        """Index of the first step whose hand error exceeds :attr:`tolerance`, or ``None``."""
+        over = np.flatnonzero(self.hand_error > self.tolerance)
+        return int(over[0]) if over.size else None
+
     def summary(self) -> dict[str, Any]:
         """Key figures of the run (JSON-ready: floats, ints, bools, strings, ``None``).
 
-        Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``collided``,
-        ``collision_time`` [s], ``collision_link``, ``max_hand_error`` [m], ``min_clearance`` [m]
-        (``None`` without obstacles), ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s],
-        ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``), ``cycle_time_median`` [s], ``cycle_time_max`` [s],
-        ``execution``, ``max_slack`` [m/s].
+        The verdict: ``success`` is true only when the run is collision-free *and* its largest hand
+        error is at most ``tolerance``; ``failure`` names what failed (``"collision"``,
+        ``"hand error"``, or both joined by ``" and "``; ``None`` on success), ``collision_time`` [s]
+        and ``error_time`` [s] when each first failed.
+
+        Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``success``,
+        ``failure``, ``tolerance`` [m], ``collided``, ``collision_time`` [s], ``collision_link``,
+        ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
+        ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
+        ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``max_slack`` [m/s].
         """
-        k = self.collision_index
+        k, e = self.collision_index, self.error_index
+        failures = [part for part, index in (("collision", k), ("hand error", e)) if index is not None]
         link = None
         if k is not None:
             link = self.link_names[int(np.argmin(self.link_distances[k]))] if self.link_names else None
@@ -117,10 +131,14 @@ class RunResult:
             "robot": self.robot,
             "steps": self.steps,
             "duration": float(self.t[-1] - self.t[0]) if self.steps else 0.0,
+            "success": not failures,
+            "failure": " and ".join(failures) or None,
+            "tolerance": self.tolerance,
             "collided": k is not None,
             "collision_time": float(self.t[k]) if k is not None else None,
             "collision_link": link,
             "max_hand_error": float(self.hand_error.max()),
+            "error_time": float(self.t[e]) if e is not None else None,
             "min_clearance": clearance if math.isfinite(clearance) else None,
             "mean_S": float(self.S.mean()),
             "min_S": float(self.S.min()),

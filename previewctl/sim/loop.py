@@ -34,7 +34,7 @@ from previewctl.index.evaluator import Evaluation, Evaluator
 from previewctl.kinematics import integrate
 from previewctl.robot.model import Robot
 from previewctl.sim.log import RunResult
-from previewctl.sim.scenario import Scenario
+from previewctl.sim.scenario import Scenario, Verdict
 from previewctl.types import Array
 
 __all__ = ["Progress", "frame_index", "simulate"]  # frame_index lives in control.controller now
@@ -52,6 +52,7 @@ def simulate(
     seed: int | None = None,
     controller: Controller | None = None,
     exact_evaluator: Evaluator | None = None,
+    tolerance: float | None = None,
 ) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -67,13 +68,16 @@ def simulate(
             A controller keeps its searches and frame clock between steps: do not reuse one.
         exact_evaluator: the evaluator of the exact check (default: one on the robot reloaded with
             ``geometry="mesh"``; pass one to share the mesh loading between runs).
+        tolerance: largest hand error [m] of a successful run (default: the scenario's ``[verdict]``).
 
     Returns:
         The log.
 
     Raises:
-        PreviewctlError: unknown controller name, an exact evaluator for another robot, ...
+        PreviewctlError: unknown controller name, an exact evaluator for another robot, a tolerance that
+            is not a positive number, ...
     """
+    verdict = scenario.verdict if tolerance is None else Verdict(tolerance)
     if controller is None:
         controller = make_controller(scenario, name=controller_name, seed=seed)
     if exact_evaluator is None:
@@ -92,6 +96,7 @@ def simulate(
         dt=scenario.timing.dt,
         joint_names=robot.joint_names,
         link_names=links,
+        tolerance=verdict.tolerance,
         velocity_limits=effective_velocity_limits(robot, controller.params.velocity_scale),
         execution="qp" if controller.execution is not None else "pseudoinverse",
         **log.arrays(count),

@@ -138,11 +138,17 @@ AfterRun = Callable[[str, Scenario, RunResult, Path], None]
 pickle (a module-level function or a ``functools.partial`` of one) when runs go to worker processes."""
 
 
-def run_one(run: PaperRun, out_dir: Path, seed: int | None = None, after_run: AfterRun | None = None) -> dict[str, Any]:
+def run_one(
+    run: PaperRun,
+    out_dir: Path,
+    seed: int | None = None,
+    after_run: AfterRun | None = None,
+    tolerance: float | None = None,
+) -> dict[str, Any]:
     """Simulate one run, save it to ``out_dir/<scene>/<label>/`` and return its summary (``after_run`` gets the
     run's temporary folder, which becomes ``out_dir/<scene>/<label>/`` once it returns)."""
     scenario = with_controller(canonical_scenario(run.scene), run.controller, run.execution)
-    result = simulate(scenario, run.controller, seed=seed)
+    result = simulate(scenario, run.controller, seed=seed, tolerance=tolerance)
     with atomic_folder(out_dir / run.scene / run.label) as folder:  # each run's folder is replaced whole
         save_run(result, folder)
         if after_run is not None:
@@ -160,6 +166,7 @@ def run_paper_scenes(
     jobs: int = 1,
     on_done: Callable[[PaperRun, dict[str, Any]], None] | None = None,
     after_run: AfterRun | None = None,
+    tolerance: float | None = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
     """Every controller under every execution on each canonical scene, into ``out_dir/<scene>/<label>/``.
 
@@ -173,6 +180,7 @@ def run_paper_scenes(
         jobs: worker processes (1: in this process); the runs are independent, so the results do not depend on it.
         on_done: called as ``on_done(run, summary)`` when each run finishes (in completion order).
         after_run: see :data:`AfterRun`.
+        tolerance: largest hand error [m] of a successful run (default: each scenario's).
 
     Returns:
         ``{scene: {label: summary}}`` in plan order (also written, atomically, to ``out_dir/summary.json``).
@@ -185,12 +193,12 @@ def run_paper_scenes(
     summaries: dict[PaperRun, dict[str, Any]] = {}
     if jobs <= 1:
         for run in plan:
-            summaries[run] = run_one(run, out, seed, after_run)
+            summaries[run] = run_one(run, out, seed, after_run, tolerance)
             if on_done is not None:
                 on_done(run, summaries[run])
     else:
         with ProcessPoolExecutor(jobs) as pool:
-            futures = {pool.submit(run_one, run, out, seed, after_run): run for run in plan}
+            futures = {pool.submit(run_one, run, out, seed, after_run, tolerance): run for run in plan}
             for future in as_completed(futures):
                 run = futures[future]
                 summaries[run] = future.result()

@@ -7,7 +7,8 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
 
     [robot]
     source = "planar4"             # URDF path, shipped robot or example-robot-data name
-    q0 = [1.2, 1.8, -2.9, 1.5]     # initial configuration [rad] (or q0_deg = [...] [deg])
+    q0 = [1.2, 1.8, -2.9, 1.5]     # initial configuration [rad] (or q0_deg = [...] [deg], or "auto":
+                                   # the best collision-free one with the hand at the first waypoint)
     # tip, lock, task, guarded_links, control_points, geometry, package_dirs: see load_robot
 
     [path]
@@ -31,6 +32,9 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
     dt = 0.01                      # control period [s]
     frame = 0.033                  # camera frame [s] (one GA generation per frame)
     duration = 5.0                 # simulated time [s] (default: path end)
+
+    [verdict]
+    tolerance = 0.005              # largest hand error [m] of a successful run (and collision-free)
 
     [index]                        # AMSI: length_unit [m] (default 0.01), weights a_i
     [potential]                    # influence_distance [m], gain, collision_value
@@ -62,22 +66,28 @@ else:  # pragma: no cover
     import tomli as tomllib
 from previewctl.control.params import ControllerParams, ControllerSpec
 from previewctl.control.tracking import gain_vector
-from previewctl.errors import PreviewctlError, ScenarioError
+from previewctl.errors import PreviewctlError, ScenarioError, UnreachableTargetError
 from previewctl.index.amsi import IndexParams
+from previewctl.index.evaluator import Evaluator
 from previewctl.index.potential import Potential
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.robot.reach import reach_of
 from previewctl.scene.file import scene_from_tables
 from previewctl.scene.motion import rpy_to_matrix
 from previewctl.scene.shapes import Scene
-from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing
+from previewctl.search.explore import explore
+from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing, Verdict
 from previewctl.types import Array
 from previewctl.validation import show, validate
 
-__all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "load_scenario", "scenario_from_dict"]
+__all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "Verdict", "load_scenario",
+           "scenario_from_dict"]
 
 START_TOLERANCE = 0.01
 """Largest distance [m] allowed between the hand at ``q0`` and the path start."""
+REACH_SLACK = 1e-9
+"""Round-off allowed [m] when a path point sits exactly on the reach shell."""
 START_ANGLE_TOLERANCE = 0.05
 """Largest angle [rad] allowed between the hand orientation at ``q0`` and the path's (pose tasks)."""
 
@@ -98,6 +108,7 @@ class Scenario:
         index: AMSI parameters.
         potential: obstacle potential parameters.
         seed: random seed for the controllers.
+        verdict: when a run succeeds (collision-free and the hand error within a tolerance).
         outputs: figures and GIF.
         source: the file it was read from, or ``None``.
         description: free text.
@@ -114,6 +125,7 @@ class Scenario:
     index: IndexParams
     potential: Potential
     seed: int = 0
+    verdict: Verdict = field(default_factory=Verdict)
     outputs: OutputSpec = field(default_factory=OutputSpec)
     source: Path | None = None
     description: str = ""
@@ -125,11 +137,13 @@ class Scenario:
         return self.robot_spec.load("mesh")
 
 
-def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+def load_scenario(path: str | os.PathLike[str], *, auto_start: bool = False) -> Scenario:
     """Read and validate a scenario TOML file.
 
     Args:
         path: the file.
+        auto_start: replace the file's ``q0`` by ``"auto"`` (the best collision-free configuration with
+            the hand at the first waypoint).
 
     Returns:
         The scenario; relative paths inside (URDF, meshes) resolve against the file's folder.
@@ -146,6 +160,9 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
         raise ScenarioError(f"{file}: not valid TOML: {exc}") from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{file}: cannot be read: {exc}") from exc
+    if auto_start and isinstance(data.get("robot"), dict):
+        robot = {key: value for key, value in data["robot"].items() if key not in ("q0", "q0_deg")}
+        data = {**data, "robot": {**robot, "q0": "auto"}}
     return scenario_from_dict(data, file.parent, source=file)
 
 
@@ -185,8 +202,13 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
     with _section("robot: "):
         robot = robot_spec.load()
     path = _path(doc.path, robot)
-    q0 = _initial_configuration(doc.robot, robot, path)
+    _check_reach(robot, path)
     scene = scene_from_tables(doc.obstacles, base)
+    index_params, potential = IndexParams(**doc.index.model_dump()), Potential(**doc.potential.model_dump())
+    if doc.robot.q0 == "auto":
+        q0 = _best_start(robot, path, Evaluator(robot, scene, index_params, potential))
+    else:
+        q0 = _initial_configuration(doc.robot, robot, path)
     controller = _controller(doc.controller, robot)
     with _section("[timing] "):
         timing = Timing(doc.timing.dt, doc.timing.frame, doc.timing.duration or path.end_time)
@@ -205,9 +227,10 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
         scene=scene,
         controller=controller,
         timing=timing,
-        index=IndexParams(**index.model_dump()),
-        potential=Potential(**doc.potential.model_dump()),
+        index=index_params,
+        potential=potential,
         seed=doc.seed,
+        verdict=Verdict(**doc.verdict.model_dump()),
         outputs=OutputSpec(**doc.output.model_dump()),
         source=Path(source) if source is not None else None,
         description=doc.description,
@@ -240,6 +263,52 @@ def _path(table: Any, robot: Robot) -> HandPath:
         raise ScenarioError("path.orientation_rpy = [roll, pitch, yaw] [rad] is required for task = 'pose'")
     with _section("path."):  # HandPath's messages start with the key, e.g. "duration must be > 0 [s]"
         return HandPath(np.array(table.waypoints), table.duration, table.start_time, orientation)
+
+
+def _check_reach(robot: Robot, path: HandPath) -> None:
+    """Every point of the path within the arm's reach shell (:mod:`previewctl.robot.reach`).
+
+    Raises:
+        ScenarioError: a waypoint beyond the outer radius, or a segment through the inner hole.
+    """
+    reach = reach_of(robot)
+    centre = reach.centre[: path.dim]
+    shown = show(np.round(centre, 4).tolist())
+    for i, point in enumerate(path.waypoints):
+        distance = float(np.linalg.norm(point - centre))
+        if distance > reach.outer + REACH_SLACK:
+            raise ScenarioError(
+                f"path.waypoints[{i}] = {show(point.tolist())} m is {distance:.4f} m from the base of robot "
+                f"{robot.name!r} (its first joint, at {shown} m), beyond its reach of {reach.outer:.4f} m"
+            )
+    for i, (a, b) in enumerate(zip(path.waypoints[:-1], path.waypoints[1:], strict=True)):
+        d = b - a
+        s = float(np.clip((centre - a) @ d / (d @ d), 0.0, 1.0)) if d @ d > 0 else 0.0
+        closest = float(np.linalg.norm(a + s * d - centre))
+        if closest < reach.inner - REACH_SLACK:
+            raise ScenarioError(
+                f"path segment {i}-{i + 1} passes {closest:.4f} m from the base of robot {robot.name!r} (at "
+                f"{shown} m); the hand cannot come closer than {reach.inner:.4f} m"
+            )
+
+
+def _best_start(robot: Robot, path: HandPath, evaluator: Evaluator) -> Array:
+    """``q0 = "auto"``: the global exploration's best configuration with the hand at the first waypoint.
+
+    Raises:
+        ScenarioError: no configuration reaches the first waypoint without collision.
+    """
+    target: Any = path.waypoints[0]
+    if robot.task == "pose" and path.orientation is not None:
+        target = (np.pad(path.waypoints[0], (0, 3 - path.dim)), path.orientation)
+    try:
+        best = explore(robot, evaluator, target, path.start_time).best
+    except UnreachableTargetError as exc:
+        raise ScenarioError(f"robot.q0 = 'auto': {exc}") from exc
+    if best.S < 0:
+        raise ScenarioError(f"robot.q0 = 'auto': every configuration with the hand at path.waypoints[0] = "
+                            f"{show(path.waypoints[0].tolist())} m collides")
+    return np.array(best.q, dtype=float)
 
 
 def _initial_configuration(table: Any, robot: Robot, path: HandPath) -> Array:
@@ -280,7 +349,8 @@ def _initial_configuration(table: Any, robot: Robot, path: HandPath) -> Array:
         raise ScenarioError(
             f"{where} puts the hand at {shown} m, {gap:.4f} m from the path start "
             f"{np.array2string(path.waypoints[0], precision=4, separator=', ')} m; it must be within "
-            f"{START_TOLERANCE} m (move q0 or the first waypoint)"
+            f"{START_TOLERANCE} m (move q0 or the first waypoint, or set q0 = \"auto\" (previewctl run --q0 auto) "
+            "to start from the best collision-free configuration at the first waypoint)"
         )
     if robot.task == "pose" and path.orientation is not None:
         angle = float(np.linalg.norm(pin.log3(path.orientation @ tip.rotation.T)))

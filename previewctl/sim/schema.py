@@ -17,6 +17,7 @@ dataclass fields by :func:`previewctl.validation.table`, so the file and the API
 ``[timing]``          :class:`Timing` (``duration`` defaults to the path's end)
 ``[index]``           :class:`~previewctl.index.amsi.IndexParams` but ``rank_tolerance``
 ``[potential]``       :class:`~previewctl.index.potential.Potential`
+``[verdict]``         :class:`Verdict`
 ``[output]``          :class:`OutputSpec`
 ====================  =====================================================================
 
@@ -44,7 +45,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, get_args
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidatorFunctionWrapHandler, WrapValidator, model_validator
 
 from previewctl.control.params import GA_SETTINGS, ControllerName, ControllerParams
 from previewctl.errors import ParameterError
@@ -53,7 +54,7 @@ from previewctl.index.potential import Potential
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Geometry, Robot, Task
 from previewctl.scene.schema import Angles, ObstacleTable
-from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, table
+from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, show, table
 
 Figure = Literal["strobe", "S", "clearance", "error"]
 FIGURES: tuple[Figure, ...] = get_args(Figure)
@@ -74,10 +75,11 @@ class RobotSpec:
     tip: Text | None = None
     lock: tuple[Text, ...] | None = None
     task: Task | None = None
-    guarded_links: tuple[Text, ...] | Literal["all", "intermediate"] = "intermediate"
+    guarded_links: tuple[Text, ...] | Literal["all", "intermediate"] = "all"
     control_points: tuple[Text, ...] | None = None
     geometry: Geometry = "convex"
     package_dirs: tuple[Text, ...] = ()
+    collision_from_visual: Flag = False
 
     def load(self, geometry: Geometry | None = None) -> Robot:
         """Load the robot, optionally with another ``geometry``."""
@@ -90,6 +92,7 @@ class RobotSpec:
             guarded_links=self.guarded_links,
             geometry=geometry or self.geometry,
             package_dirs=self.package_dirs,
+            collision_from_visual=self.collision_from_visual,
         )
 
 
@@ -128,6 +131,17 @@ class Timing(Checked):
 
 
 @dataclass(frozen=True)
+class Verdict(Checked):
+    """When a run succeeds: it is collision-free *and* the hand stays on its path.
+
+    Attributes:
+        tolerance: largest hand error ``|r_d − r|`` [m] of a successful run.
+    """
+
+    tolerance: Positive = 0.005
+
+
+@dataclass(frozen=True)
 class OutputSpec(Checked):
     """What ``previewctl run`` writes besides the log.
 
@@ -158,9 +172,20 @@ class _OneStart(Section):
         return self
 
 
-RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(Configuration | None, None),
+def _auto_or_angles(value: Any, handler: ValidatorFunctionWrapHandler) -> Any:
+    """``"auto"`` as is; anything else checked as a :data:`Configuration` (its messages name the entry)."""
+    if isinstance(value, str) and value != "auto":
+        raise invalid("must be a list of numbers [rad] or \"auto\", got {value}", value=show(value))
+    return value if value == "auto" else handler(value)
+
+
+StartConfiguration = Annotated[Configuration, WrapValidator(_auto_or_angles)]
+"""``q0``: joint angles [rad], or ``"auto"``."""
+
+RobotTable: Any = table("robot", RobotSpec, base=_OneStart, q0=(StartConfiguration | None, None),
                         q0_deg=(Configuration | None, None))
-"""``[robot]``: how to load the arm and its initial configuration ``q0`` [rad] or ``q0_deg`` [deg]."""
+"""``[robot]``: how to load the arm and its initial configuration ``q0`` [rad] or ``q0_deg`` [deg];
+``q0 = "auto"``: the best collision-free configuration with the hand at the first waypoint."""
 
 
 class PathTable(Section):
@@ -180,6 +205,7 @@ TimingTable: Any = table("timing", Timing, exclude=("duration",), duration=(Posi
 """``[timing]``: :class:`Timing`; ``duration`` defaults to the path's end."""
 IndexTable: Any = table("index", IndexParams, exclude=("rank_tolerance",))
 PotentialTable: Any = table("potential", Potential)
+VerdictTable: Any = table("verdict", Verdict)
 OutputTable: Any = table("output", OutputSpec)
 
 
@@ -196,4 +222,5 @@ class ScenarioFile(Section):
     timing: TimingTable = TimingTable()
     index: IndexTable = IndexTable()
     potential: PotentialTable = PotentialTable()
+    verdict: VerdictTable = VerdictTable()
     output: OutputTable = OutputTable()
