@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pytest
 
-from previewctl.files import atomic_write, save_figure
+from previewctl.files import append_line, atomic_write, save_figure
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path: Path) -> None:
@@ -107,3 +107,13 @@ def test_only_viz_imports_matplotlib_and_pillow() -> None:
                 continue
             offenders += [f"{name}:{node.lineno} {m}" for m in modules if m.split(".")[0] in ("matplotlib", "PIL")]
     assert not offenders, "only previewctl/viz/ draws: " + ", ".join(offenders)
+
+
+def test_append_line_after_a_torn_last_line_starts_a_new_line(tmp_path: Path) -> None:
+    """A crash mid-append leaves a torn line; the next record must not be glued onto it."""
+    log = tmp_path / "results.jsonl"
+    append_line(log, '{"a": 1}')
+    with log.open("ab") as handle:  # the torn tail of a crashed writer
+        handle.write(b'{"b": ')
+    append_line(log, '{"c": 3}\n')
+    assert log.read_bytes() == b'{"a": 1}\n{"b": \n{"c": 3}\n'
