@@ -130,7 +130,7 @@ def test_bench_bad_input_is_one_line_and_exit_2(
 def _record(scene: int, controller: str, ok: bool) -> dict[str, object]:
     return {"robot": "planar4", "scene": scene, "seed": 0, "controller": controller, "execution": "qp",
             "success_1mm": ok, "success_5mm": ok, "collision_free": ok, "max_hand_error": 1e-4,
-            "cycle_time_median": 1e-3, "cycle_time_p95": 2e-3, "wall_time": 1.0}
+            "cycle_time_median": 1e-3, "cycle_time_p95": 2e-3, "wall_time": 1.0, "cpu_time": 0.5}
 
 
 def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path: Path) -> None:

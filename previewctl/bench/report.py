@@ -5,6 +5,7 @@ Read from the results file alone, so a report can be remade at any time (``previ
 
 from __future__ import annotations
 
+import re
 import statistics
 from collections import defaultdict
 from pathlib import Path
@@ -36,16 +37,16 @@ def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]])
     scenes = len({(r["scene"], r["seed"]) for rows in cells.values() for r in rows})
     lines = [f"### {robot} ({scenes} scene-seed pairs)", "",
              "| controller | execution | runs | success < 1 mm | success < 5 mm | collision-free | "
-             "median max error [mm] | cycle median / p95 [ms] | wall per run [s] |",
+             "median max error [mm] | cycle median / p95 [ms] | CPU per run [s] |",
              "|---|---|---|---|---|---|---|---|---|"]
     for (controller, execution), rows in sorted(cells.items()):
         error = statistics.median(r["max_hand_error"] for r in rows) * 1e3
         cycle = statistics.median(r["cycle_time_median"] for r in rows) * 1e3
         p95 = statistics.median(r["cycle_time_p95"] for r in rows) * 1e3
-        wall = statistics.mean(r["wall_time"] for r in rows)
+        cost = statistics.mean(r["cpu_time"] for r in rows)
         lines.append(f"| {controller} | {execution} | {len(rows)} | {_rate(rows, 'success_1mm'):.0%} | "
                      f"{_rate(rows, 'success_5mm'):.0%} | {_rate(rows, 'collision_free'):.0%} | {error:.2f} | "
-                     f"{cycle:.2f} / {p95:.2f} | {wall:.1f} |")
+                     f"{cycle:.2f} / {p95:.2f} | {cost:.1f} |")
     return [*lines, ""]
 
 
@@ -80,7 +81,7 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
         if drawn:
             rejected = sum(s["rejected"] for s in drawn)
             lines += [f"{robot}: {len(drawn)} scenes generated, {rejected} draws rejected by the solvability "
-                      f"witness on the way ({drawn[0]['witness'].split(':')[0]}).", ""]
+                      f"witness on the way ({re.split('[:(]', drawn[0]['witness'])[0].strip()}).", ""]
     lines += ["## Success rates", ""]
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)

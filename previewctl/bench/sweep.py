@@ -21,7 +21,7 @@ from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
 from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, generate
 from previewctl.control import params as control_params
-from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
 
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
@@ -79,8 +79,8 @@ class Sweep:
 
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario)."""
-        controllers = self.controllers or control_params.CONTROLLER_NAMES
-        executions = self.executions or control_params.EXECUTION_MODES
+        controllers = dict.fromkeys(self.controllers or control_params.CONTROLLER_NAMES)
+        executions = dict.fromkeys(self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
@@ -118,15 +118,6 @@ def missing_runs(sweep: Sweep, results: Path) -> tuple[list[RunSpec], int]:
     return [spec for spec in planned if spec.key not in done], len(planned)
 
 
-def _scene_key(robot: str, index: int, settings: str) -> tuple[str, int, str]:
-    return robot, index, settings
-
-
-def _generate(robot: str, index: int, seed: int, settings: SceneSettings) -> BenchScene:
-    """The scene task (a module-level function, so that it pickles by name)."""
-    return generate(robot, index, seed, settings)
-
-
 def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[str, Any]], None] | None = None,
               on_start: Callable[[int], None] | None = None) -> SweepOutcome:
     """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``.
@@ -140,23 +131,26 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
     """
     from distributed import as_completed
 
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PreviewctlError(f"cannot create the output folder {str(out)!r}: {exc}") from exc
     results, scenes_file = out / RESULTS_NAME, out / SCENES_NAME
     todo, planned = missing_runs(sweep, results)
     outcome = SweepOutcome(planned=planned, skipped=planned - len(todo))
     if on_start is not None:
         on_start(len(todo))
-    known = {_scene_key(r["robot"], r["index"], r["settings"]): r for r in read_records(scenes_file)}
+    known = {(r["robot"], r["index"], r["settings"]): r for r in read_records(scenes_file)}
     scene_tasks: dict[tuple[str, int, str], Any] = {}
     futures = {}
     for spec in todo:
-        key = _scene_key(spec.robot, spec.scene, spec.settings)
+        key = (spec.robot, spec.scene, spec.settings)
         if key not in scene_tasks:
             if key in known:
-                stored = {k: v for k, v in known[key].items() if k in {f.name for f in dataclasses.fields(BenchScene)}}
-                scene_tasks[key] = client.scatter(BenchScene(**stored))
+                stored = BenchScene(**{f.name: known[key][f.name] for f in dataclasses.fields(BenchScene)})
+                scene_tasks[key] = client.scatter(stored)
             else:
-                scene_tasks[key] = client.submit(_generate, spec.robot, spec.scene, spec.scene_seed, sweep.settings,
+                scene_tasks[key] = client.submit(generate, spec.robot, spec.scene, spec.scene_seed, sweep.settings,
                                                  pure=False)
         futures[client.submit(run, spec, scene_tasks[key], pure=False)] = (spec, key)
     fetched: dict[tuple[str, int, str], BenchScene] = {}
