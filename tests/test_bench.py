@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from distributed import LocalCluster
 
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
@@ -73,14 +74,13 @@ def test_generator_errors_name_the_bad_value() -> None:
 # ------------------------------------------------------------------------------- sweep, resume
 
 
-def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume(
+def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_scheduler(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setenv("PYTHONPATH", str(ROOT))  # the worker processes import this worktree's previewctl
     out = tmp_path / "bench"
-    common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--workers", "2",
-              "--out", str(out)]
-    assert main([*common, "--controllers", "none,gradient"]) == 0
+    common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--out", str(out)]
+    assert main([*common, "--workers", "1", "--controllers", "none,gradient"]) == 0  # a local cluster
     assert "4 runs done" in capsys.readouterr().out
     records = read_records(out / "results.jsonl")
     assert sorted((r["scene"], r["controller"]) for r in records) == [
@@ -100,7 +100,8 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume(
     assert "| none | pseudoinverse | 2 |" in report and "| gradient | pseudoinverse | 2 |" in report
     assert (out / "success.png").read_bytes().startswith(b"\x89PNG")
 
-    assert main([*common, "--controllers", "none,gradient,single"]) == 0
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single"]) == 0
     printed = capsys.readouterr().out
     assert "2 runs done" in printed and "4 already in" in printed
     again = read_records(out / "results.jsonl")

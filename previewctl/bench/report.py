@@ -11,7 +11,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from previewctl.control.params import PREVIEW_MODES
+from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
 
@@ -25,12 +25,20 @@ def _rate(rows: list[dict[str, Any]], key: str) -> float:
     return sum(bool(r[key]) for r in rows) / len(rows)
 
 
+def _order(cell: tuple[str, str]) -> tuple[int, str, int, str]:
+    """Controllers and execution modes in the order the package lists them (unknown names last)."""
+    controllers, executions = control_params.CONTROLLER_NAMES, control_params.EXECUTION_MODES
+    controller, execution = cell
+    return (controllers.index(controller) if controller in controllers else len(controllers), controller,
+            executions.index(execution) if execution in executions else len(executions), execution)
+
+
 def _groups(records: list[dict[str, Any]]) -> dict[str, dict[tuple[str, str], list[dict[str, Any]]]]:
-    """Records per robot, then per ``(controller, execution)``, in the order they first appear."""
+    """Records per robot (in the order they first appear), then per ``(controller, execution)`` (:func:`_order`)."""
     groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]] = defaultdict(lambda: defaultdict(list))
     for r in records:
         groups[r["robot"]][(r["controller"], r["execution"])].append(r)
-    return groups
+    return {robot: dict(sorted(cells.items(), key=lambda item: _order(item[0]))) for robot, cells in groups.items()}
 
 
 def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]]) -> list[str]:
@@ -39,7 +47,7 @@ def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]])
              "| controller | execution | runs | success < 1 mm | success < 5 mm | collision-free | "
              "median max error [mm] | cycle median / p95 [ms] | CPU per run [s] |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for (controller, execution), rows in sorted(cells.items()):
+    for (controller, execution), rows in cells.items():
         error = statistics.median(r["max_hand_error"] for r in rows) * 1e3
         cycle = statistics.median(r["cycle_time_median"] for r in rows) * 1e3
         p95 = statistics.median(r["cycle_time_p95"] for r in rows) * 1e3
@@ -61,7 +69,7 @@ def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
     pairs: dict[tuple[str, str, str], tuple[list[str], list[str]]] = defaultdict(lambda: ([], []))
     for (robot, scene, seed, controller, execution), r in sorted(outcome.items()):
         base = outcome.get((robot, scene, seed, BASELINE, execution))
-        if controller not in PREVIEW_MODES or base is None or r["success_1mm"] == base["success_1mm"]:
+        if controller not in control_params.PREVIEW_MODES or base is None or r["success_1mm"] == base["success_1mm"]:
             continue
         pairs[(robot, controller, execution)][0 if r["success_1mm"] else 1].append(f"{scene}:{seed}")
     for (robot, controller, execution), (wins, losses) in sorted(pairs.items()):
@@ -86,7 +94,7 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
     lines += _against_baseline(records)
-    figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in sorted(cells.items())}
+    figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}
                            for robot, cells in groups.items()}, out / FIGURE_NAME)
     lines += [f"![success rates]({FIGURE_NAME})", ""]
     report = out / REPORT_NAME

@@ -14,6 +14,7 @@ from previewctl.bench.results import read_records
 from previewctl.bench.scenes import PROFILES, SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, run_sweep
 from previewctl.cli.common import Commands
+from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES
 from previewctl.errors import ParameterError
 
 
@@ -31,19 +32,22 @@ def add_parser(commands: Commands) -> None:
         "(one worker process per core) or on the cluster at --scheduler.",
         epilog="example: previewctl bench --robot planar4,panda --scenes 10 --workers 2 --out out/bench",
     )
-    bench.add_argument("--robot", default="planar4", help=f"comma-separated robots (default planar4; valid: "
-                       f"{', '.join(PROFILES)})")
-    bench.add_argument("--scenes", type=int, default=10, help="scenes per robot (default 10)")
-    bench.add_argument("--controllers", help="comma-separated controllers (default: all)")
-    bench.add_argument("--executions", help="comma-separated execution modes (default: all)")
-    bench.add_argument("--seeds", type=int, default=1, help="controller seeds 0..N-1 per scene (default 1)")
-    bench.add_argument("--scene-seed", type=int, default=0, help="seed the scenes are drawn with (default 0)")
-    bench.add_argument("--duration", type=float, help="run length [s] (default: 8 planar4, 10 spatial arms)")
-    bench.add_argument("--out", default="out/bench", help="output folder (default out/bench)")
-    bench.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core)")
-    bench.add_argument("--scheduler", help="address of a running Dask scheduler (e.g. tcp://host:8786) instead of a "
-                       "local cluster; its workers need this same previewctl")
-    bench.add_argument("--report-only", action="store_true", help="only remake report.md and success.png")
+    option = bench.add_argument
+    option("--robot", default="planar4", metavar="NAMES",
+           help=f"comma-separated robots (default planar4; valid: {', '.join(PROFILES)})")
+    option("--scenes", type=int, default=10, metavar="N", help="scenes per robot (default 10)")
+    option("--controllers", metavar="NAMES",
+           help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
+    option("--executions", metavar="NAMES",
+           help=f"comma-separated execution modes (default: all of {', '.join(EXECUTION_MODES)})")
+    option("--seeds", type=int, default=1, metavar="N", help="controller seeds 0..N-1 per scene (default 1)")
+    option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
+    option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
+    option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")
+    option("--workers", type=int, metavar="N", help="local cluster: worker processes (default: one per core)")
+    option("--scheduler", metavar="ADDRESS", help="address of a running Dask scheduler (e.g. tcp://host:8786) "
+           "instead of a local cluster; its workers need this same previewctl")
+    option("--report-only", action="store_true", help="only remake report.md and success.png")
     bench.set_defaults(func=cmd_bench)
 
 
