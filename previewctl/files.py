@@ -23,8 +23,8 @@ from typing import IO, Any
 
 from previewctl.errors import OutputError
 
-__all__ = ["atomic_folder", "atomic_write", "atomic_write_bytes", "check_output_file", "check_output_folder",
-           "remove_stale", "save_figure"]
+__all__ = ["append_line", "atomic_folder", "atomic_write", "atomic_write_bytes", "check_output_file",
+           "check_output_folder", "remove_stale", "save_figure"]
 
 
 def atomic_write(path: Path, write: Callable[[IO[bytes]], None]) -> None:
@@ -54,6 +54,25 @@ def atomic_write_bytes(path: Path, payload: bytes) -> None:
         handle.write(payload)
 
     atomic_write(path, write)
+
+
+def append_line(path: Path, line: str) -> None:
+    """Append ``line`` (without its newline) and a newline to ``path`` in one write, then ``fsync``.
+
+    A log of records (JSON Lines) grows this way: a crash leaves at most a torn last line, and the next
+    append starts on a new line so that every line written whole stays whole.
+    """
+    payload = line.rstrip("\n").encode("utf-8") + b"\n"
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_APPEND, 0o644)
+    try:
+        size = os.fstat(fd).st_size
+        if size and os.pread(fd, 1, size - 1) != b"\n":
+            payload = b"\n" + payload
+        while payload:
+            payload = payload[os.write(fd, payload):]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **options: Any) -> Path:

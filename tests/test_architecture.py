@@ -3,7 +3,7 @@
 Every module belongs to one layer; a module may import from its own layer and the layers before it,
 never from a later one (that would be reaching back up the flow):
 
-    base -> inputs -> robot -> index -> search -> control -> sim -> viz -> cli
+    base -> inputs -> robot -> index -> search -> control -> sim -> viz -> bench -> cli
 
 ``robot.load`` sits after the index: loading a robot computes its structural ranks with
 :func:`previewctl.index.amsi.avoidance` (a fact of the robot, computed once), and nothing upstream
@@ -30,6 +30,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("control",),
     ("sim",),
     ("viz",),
+    ("bench",),
     ("cli", "__main__", ""),
 )
 

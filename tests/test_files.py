@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pytest
 
-from previewctl.files import atomic_folder, atomic_write, atomic_write_bytes, remove_stale, save_figure
+from previewctl.files import append_line, atomic_folder, atomic_write, atomic_write_bytes, remove_stale, save_figure
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path: Path) -> None:
@@ -200,3 +200,13 @@ def test_run_killed_while_writing_leaves_the_old_folder_whole(tmp_path: Path) ->
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
     assert json.loads((out / "summary.json").read_text())["controller"] == "none"
     assert not (out / "run.gif").exists() and (out / "run.npz").is_file()
+
+
+def test_append_line_after_a_torn_last_line_starts_a_new_line(tmp_path: Path) -> None:
+    """A crash mid-append leaves a torn line; the next record must not be glued onto it."""
+    log = tmp_path / "results.jsonl"
+    append_line(log, '{"a": 1}')
+    with log.open("ab") as handle:  # the torn tail of a crashed writer
+        handle.write(b'{"b": ')
+    append_line(log, '{"c": 3}\n')
+    assert log.read_bytes() == b'{"a": 1}\n{"b": \n{"c": 3}\n'

@@ -1,4 +1,6 @@
-"""Command line: ``previewctl {robots,index,map,run,paper,reach-map,view}``. Bad input -> one line on stderr, exit 2."""
+"""Command line: ``previewctl {robots,index,map,run,paper,reach-map,view,bench}``.
+
+Bad input -> one line on stderr, exit 2."""
 
 from __future__ import annotations
 
@@ -6,7 +8,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from previewctl.cli import index, paper, reach_map, robots, run, view
+from previewctl.cli import bench, index, paper, reach_map, robots, run, view
 from previewctl.cli import map as map_command
 from previewctl.cli.common import EXIT_USAGE, ArgumentParser
 from previewctl.errors import PreviewctlError
@@ -20,7 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(avoidance manipulability, 1-step GA, multi-preview control).",
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
-    for command in (robots, index, run, paper, map_command, reach_map, view):
+    for command in (robots, index, run, paper, map_command, reach_map, view, bench):
         command.add_parser(commands)
     return parser
 

@@ -1,0 +1,102 @@
+"""The benchmark report: success rates per robot, controller and execution mode, and preview against ``qp``.
+
+Read from the results file alone, so a report can be remade at any time (``previewctl bench --report-only``).
+"""
+
+from __future__ import annotations
+
+import re
+import statistics
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from previewctl.control import params as control_params
+from previewctl.files import atomic_write_bytes
+from previewctl.viz.bench import plot_success
+
+REPORT_NAME = "report.md"
+FIGURE_NAME = "success.png"
+BASELINE = "qp"
+"""The peer method preview is compared with: QP tracking with no null-space preference."""
+
+
+def _rate(rows: list[dict[str, Any]], key: str) -> float:
+    return sum(bool(r[key]) for r in rows) / len(rows)
+
+
+def _order(cell: tuple[str, str]) -> tuple[int, str, int, str]:
+    """Controllers and execution modes in the order the package lists them (unknown names last)."""
+    controllers, executions = control_params.CONTROLLER_NAMES, control_params.EXECUTION_MODES
+    controller, execution = cell
+    return (controllers.index(controller) if controller in controllers else len(controllers), controller,
+            executions.index(execution) if execution in executions else len(executions), execution)
+
+
+def _groups(records: list[dict[str, Any]]) -> dict[str, dict[tuple[str, str], list[dict[str, Any]]]]:
+    """Records per robot (in the order they first appear), then per ``(controller, execution)`` (:func:`_order`)."""
+    groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]] = defaultdict(lambda: defaultdict(list))
+    for r in records:
+        groups[r["robot"]][(r["controller"], r["execution"])].append(r)
+    return {robot: dict(sorted(cells.items(), key=lambda item: _order(item[0]))) for robot, cells in groups.items()}
+
+
+def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]]) -> list[str]:
+    scenes = len({(r["scene"], r["seed"]) for rows in cells.values() for r in rows})
+    lines = [f"### {robot} ({scenes} scene-seed pairs)", "",
+             "| controller | execution | runs | success < 1 mm | success < 5 mm | collision-free | "
+             "median max error [mm] | cycle median / p95 [ms] | CPU per run [s] |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for (controller, execution), rows in cells.items():
+        error = statistics.median(r["max_hand_error"] for r in rows) * 1e3
+        cycle = statistics.median(r["cycle_time_median"] for r in rows) * 1e3
+        p95 = statistics.median(r["cycle_time_p95"] for r in rows) * 1e3
+        cost = statistics.mean(r["cpu_time"] for r in rows)
+        lines.append(f"| {controller} | {execution} | {len(rows)} | {_rate(rows, 'success_1mm'):.0%} | "
+                     f"{_rate(rows, 'success_5mm'):.0%} | {_rate(rows, 'collision_free'):.0%} | {error:.2f} | "
+                     f"{cycle:.2f} / {p95:.2f} | {cost:.1f} |")
+    return [*lines, ""]
+
+
+def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
+    """Scenes where a preview mode succeeds (< 1 mm) and ``qp`` fails, and the reverse, per robot and execution."""
+    outcome = {(r["robot"], r["scene"], r["seed"], r["controller"], r["execution"]): r for r in records}
+    lines = [f"## Preview against the `{BASELINE}` baseline (success < 1 mm, same scene, seed and execution)", ""]
+    if not any(r["controller"] == BASELINE for r in records):
+        return [*lines, f"No `{BASELINE}` runs in these results: nothing to compare with.", ""]
+    lines += ["| robot | preview | execution | beats qp on (scene:seed) | loses to qp on (scene:seed) |",
+              "|---|---|---|---|---|"]
+    pairs: dict[tuple[str, str, str], tuple[list[str], list[str]]] = defaultdict(lambda: ([], []))
+    for (robot, scene, seed, controller, execution), r in sorted(outcome.items()):
+        base = outcome.get((robot, scene, seed, BASELINE, execution))
+        if controller not in control_params.PREVIEW_MODES or base is None or r["success_1mm"] == base["success_1mm"]:
+            continue
+        pairs[(robot, controller, execution)][0 if r["success_1mm"] else 1].append(f"{scene}:{seed}")
+    for (robot, controller, execution), (wins, losses) in sorted(pairs.items()):
+        lines.append(f"| {robot} | {controller} | {execution} | {', '.join(wins) or '-'} | "
+                     f"{', '.join(losses) or '-'} |")
+    return [*lines, ""]
+
+
+def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], out: Path) -> tuple[Path, Path]:
+    """Write ``report.md`` and ``success.png`` into ``out`` from the result and scene records."""
+    groups = _groups(records)
+    lines = ["# previewctl bench", "",
+             f"{len(records)} runs. Success = no collision of a guarded link (exact geometry) AND max hand error "
+             "below the tolerance over the whole run.", ""]
+    for robot in groups:
+        drawn = [s for s in scenes if s["robot"] == robot]
+        if drawn:
+            rejected = sum(s["rejected"] for s in drawn)
+            lines += [f"{robot}: {len(drawn)} scenes generated, {rejected} draws rejected by the solvability "
+                      f"witness on the way ({re.split('[:(]', drawn[0]['witness'])[0].strip()}).", ""]
+    lines += ["## Success rates", ""]
+    for robot, cells in groups.items():
+        lines += _rates_table(robot, cells)
+    lines += _against_baseline(records)
+    figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}
+                           for robot, cells in groups.items()}, out / FIGURE_NAME)
+    lines += [f"![success rates]({FIGURE_NAME})", ""]
+    report = out / REPORT_NAME
+    atomic_write_bytes(report, "\n".join(lines).encode("utf-8"))
+    return report, figure

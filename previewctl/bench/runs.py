@@ -1,0 +1,91 @@
+"""One benchmark run as a plain, picklable task: its spec, its key, and the function a worker runs.
+
+A :class:`RunSpec` holds only names and numbers; the worker builds the robot, the scenario and the
+controller itself (:func:`run`), caching per process what several runs share: the robots
+(:func:`~previewctl.bench.scenes.cached_robot`) and the last scenarios built. Pinocchio and Coal
+objects never cross a process boundary.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import json
+import time
+from dataclasses import dataclass
+from typing import Any, cast
+
+from previewctl.bench.metrics import run_metrics
+from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, cached_robot
+from previewctl.control.params import ControllerSpec, ExecutionMode
+from previewctl.index.evaluator import Evaluator
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, scenario_from_dict
+
+KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings")
+"""The fields of a run's key: a result line with the same values is the same run."""
+
+GENERATOR_VERSION = 1
+"""Bumped when :mod:`previewctl.bench.scenes` draws differently: old results no longer match."""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of the sweep matrix.
+
+    Attributes:
+        robot: robot name.
+        scene: scene index.
+        seed: the controller's random seed (GA stream).
+        controller: controller name.
+        execution: execution mode (``ControllerParams.execution``).
+        settings: :func:`settings_hash` of the scene settings and scene seed.
+        scene_seed: the seed the scene was drawn with.
+    """
+
+    robot: str
+    scene: int
+    seed: int
+    controller: str
+    execution: str
+    settings: str
+    scene_seed: int = 0
+
+    @property
+    def key(self) -> tuple[Any, ...]:
+        """The run's identity in the results file."""
+        return tuple(getattr(self, name) for name in KEY_FIELDS)
+
+
+def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
+    """The key of a result line (see :data:`KEY_FIELDS`)."""
+    return tuple(record.get(name) for name in KEY_FIELDS)
+
+
+def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
+    """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields."""
+    described = {"robot": robot, "scene_seed": scene_seed, "settings": dataclasses.asdict(settings),
+                 "profile": dataclasses.asdict(PROFILES[robot]), "generator": GENERATOR_VERSION}
+    return hashlib.sha256(json.dumps(described, sort_keys=True).encode()).hexdigest()[:12]
+
+
+@functools.lru_cache(maxsize=4)
+def _scenario(document: str) -> Scenario:
+    """The scenario of a scene document (JSON text), built once per process for its runs."""
+    data = json.loads(document)
+    return scenario_from_dict(data, source=data["name"])
+
+
+def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
+    """Simulate ``spec`` on ``scene``: the result line (the spec's fields, the metrics, the wall and CPU time
+    of the worker [s]; on a shared host the CPU time is the fairer cost)."""
+    start, cpu = time.perf_counter(), time.process_time()
+    base = _scenario(json.dumps(scene.document, sort_keys=True))
+    execution = cast(ExecutionMode, spec.execution)  # ControllerParams checks the value
+    params = dataclasses.replace(base.controller.params, execution=execution)
+    scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
+    exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
+    result = simulate(scenario, seed=spec.seed, exact_evaluator=exact)
+    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result),
+            "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

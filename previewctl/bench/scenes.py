@@ -1,0 +1,317 @@
+"""Seeded benchmark scenes: a hand path within reach and obstacles that cross the intermediate links mid-run.
+
+:func:`generate` draws scene ``index`` of a robot from ``np.random.default_rng((crc32(robot), index, seed))``:
+
+1. ``q0`` uniformly in a box around the robot's nominal pose (:class:`Profile`), the hand there;
+2. a hand path of straight segments from that hand, every sample inside the profile's workspace;
+3. the arm's motion under plain tracking (controller ``none``, no obstacle) up to each crossing time
+   ``t_c``, drawn in the middle of the run; there a point on the polyline of the joint origins (the
+   intermediate links, never the hand's link) is chosen, and an obstacle (a disc for a planar arm, a
+   ball otherwise) is sent through it at ``t_c`` at constant velocity, across the link. The first
+   obstacle crosses at ``0.35-0.65`` of the run; with probability 1/2 a second one crosses elsewhere.
+   Each obstacle is redrawn until it starts :data:`START_CLEARANCE` clear of the arm at ``q0``;
+4. the document goes through :func:`~previewctl.sim.scenario.scenario_from_dict` (the scenario files'
+   validation path) and the solvability witness (:mod:`previewctl.bench.witness`); a draw it rejects
+   is counted and the next draw taken.
+
+The same ``(robot, index, seed, settings)`` always gives the same scene.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+import zlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from previewctl.control.factory import make_controller
+from previewctl.errors import ParameterError, ScenarioError, UnknownNameError
+from previewctl.index.evaluator import Evaluator
+from previewctl.kinematics import integrate
+from previewctl.path import HandPath
+from previewctl.robot.load import load_robot
+from previewctl.robot.model import Robot
+from previewctl.scene.file import scene_from_dict
+from previewctl.scene.shapes import Scene
+from previewctl.sim.scenario import Scenario, scenario_from_dict
+from previewctl.types import Array
+
+
+@dataclass(frozen=True)
+class Profile:
+    """How scenes of one robot are drawn (lengths [m], angles [rad], speeds [m/s], times [s]).
+
+    Attributes:
+        q0_center: centre of the box ``q0`` is drawn from (clipped to the joint limits).
+        q0_spread: half-widths of that box.
+        segments: number of straight path segments.
+        segment_length: range of each segment's length.
+        reach: range of the hand's distance from the base's z axis (planar: from the base).
+        height: range of the hand's height (``None``: planar).
+        radius: range of the obstacle radius.
+        speed: range of the obstacle speed.
+        duration: default run length.
+        controller: the ``[controller]`` table every controller runs with (its name is replaced).
+    """
+
+    q0_center: tuple[float, ...]
+    q0_spread: tuple[float, ...]
+    segments: int
+    segment_length: tuple[float, float]
+    reach: tuple[float, float]
+    height: tuple[float, float] | None
+    radius: tuple[float, float]
+    speed: tuple[float, float]
+    duration: float
+    controller: dict[str, Any] = field(default_factory=dict)
+
+
+_SPATIAL_CONTROLLER = {"gradient_gain": 1e-3, "feedback_gain": 5.0, "gain": 1.0, "preview_time": 1.0}
+"""The settings of scenarios/panda_crossing.toml and xarm7_crossing.toml (without the local term)."""
+
+PROFILES: dict[str, Profile] = {
+    "planar4": Profile(q0_center=(0.0, 0.0, 0.0, 0.0), q0_spread=(math.pi, 2.5, 2.5, 2.5), segments=2,
+                       segment_length=(0.3, 0.5), reach=(1.0, 2.6), height=None, radius=(0.08, 0.15),
+                       speed=(0.15, 0.35), duration=8.0, controller={"feedback_gain": 5.0}),
+    # nominal poses: q0 of scenarios/panda_crossing.toml and scenarios/xarm7_crossing.toml
+    "panda": Profile(q0_center=(-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785), q0_spread=(0.4,) * 7,
+                     segments=1, segment_length=(0.3, 0.5), reach=(0.3, 0.7), height=(0.15, 0.7),
+                     radius=(0.05, 0.09), speed=(0.08, 0.15), duration=10.0, controller=_SPATIAL_CONTROLLER),
+    "xarm7": Profile(q0_center=(-0.2928, 0.1534, -0.2673, 1.0918, -0.0348, 1.1576, 0.0), q0_spread=(0.4,) * 7,
+                     segments=1, segment_length=(0.3, 0.5), reach=(0.3, 0.65), height=(0.15, 0.7),
+                     radius=(0.05, 0.09), speed=(0.08, 0.15), duration=10.0, controller=_SPATIAL_CONTROLLER),
+}
+"""The robots scenes are generated for."""
+
+GEOMETRY_DRAWS = 1000
+"""Most draws of ``q0`` and path, or of an obstacle, per scene draw before giving up."""
+START_CLEARANCE = 0.05
+"""Least distance [m] between an obstacle and the guarded links at ``t = 0`` (a scene starts in the clear)."""
+
+
+@dataclass(frozen=True)
+class SceneSettings:
+    """What every scene of a sweep shares.
+
+    Attributes:
+        duration: run length [s] (``None``: the profile's).
+        dt: control period [s].
+        max_draws: most draws per scene the witness may reject.
+        witness_resolution_deg: planar witness: the reachability DP's grid step [deg] (sound at any step:
+            a coarser grid only finds fewer motions, so it rejects more).
+        witness_period: time between witness samples [s] (DP step for planar; check period for spatial arms).
+        witness_samples: spatial witness: Halton samples of the redundancy space per check.
+    """
+
+    duration: float | None = None
+    dt: float = 0.01
+    max_draws: int = 30
+    witness_resolution_deg: float = 4.0
+    witness_period: float = 0.25
+    witness_samples: int = 256
+
+    def __post_init__(self) -> None:
+        """Check the values.
+
+        Raises:
+            ParameterError: a non-positive duration, period or step, or fewer than one draw or sample.
+        """
+        for name in ("dt", "witness_resolution_deg", "witness_period"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration >= 2 * self.dt):
+            raise ParameterError(f"duration must be at least two control periods ({2 * self.dt:g} s), "
+                                 f"got {self.duration!r}")
+        for name in ("max_draws", "witness_samples"):
+            if getattr(self, name) < 1:
+                raise ParameterError(f"{name} must be >= 1, got {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class BenchScene:
+    """A generated scene.
+
+    Attributes:
+        robot: robot name.
+        index: scene index.
+        seed: the sweep's scene seed.
+        document: the scenario document (plain JSON values; :meth:`scenario` builds it).
+        rejected: draws the witness rejected before this one.
+        witness: what the witness found, one sentence.
+    """
+
+    robot: str
+    index: int
+    seed: int
+    document: dict[str, Any]
+    rejected: int
+    witness: str
+
+    def scenario(self) -> Scenario:
+        """The scenario, through the scenario files' validation."""
+        return scenario_from_dict(self.document, source=self.document["name"])
+
+
+def profile(robot: str) -> Profile:
+    """The profile of ``robot``.
+
+    Raises:
+        UnknownNameError: a robot without a profile (lists the valid ones).
+    """
+    if robot not in PROFILES:
+        raise UnknownNameError("robot", robot, PROFILES)
+    return PROFILES[robot]
+
+
+@functools.lru_cache(maxsize=8)
+def cached_robot(name: str, geometry: str = "convex") -> Robot:
+    """``load_robot(name, geometry=...)``, once per process (robots are not pickled between workers)."""
+    return load_robot(name, geometry=geometry)  # type: ignore[arg-type]
+
+
+def generate(robot: str, index: int, seed: int = 0, settings: SceneSettings | None = None) -> BenchScene:
+    """Scene ``index`` of ``robot`` for scene seed ``seed``: the first draw the witness accepts.
+
+    Raises:
+        UnknownNameError: an unknown robot.
+        ParameterError: a negative index or seed.
+        ScenarioError: no draw accepted within ``settings.max_draws``.
+    """
+    from previewctl.bench.witness import witness
+
+    prof = profile(robot)
+    for name, value in (("scene index", index), ("scene seed", seed)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ParameterError(f"{name} must be an integer >= 0, got {value!r}")
+    settings = settings or SceneSettings()
+    rng = np.random.default_rng((zlib.crc32(robot.encode()), index, seed))
+    arm = cached_robot(robot)
+    for draw in range(settings.max_draws):
+        document = draw_document(arm, robot, prof, rng, settings, name=f"{robot}_{index:03d}_s{seed}")
+        scenario = scenario_from_dict(document, source=document["name"])
+        holds, sentence = witness(scenario, settings)
+        if holds:
+            return BenchScene(robot, index, seed, document, draw, sentence)
+    raise ScenarioError(f"{robot} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
+
+
+def draw_document(arm: Robot, robot: str, prof: Profile, rng: np.random.Generator, settings: SceneSettings,
+                  name: str) -> dict[str, Any]:
+    """One draw: the scenario document of ``q0``, the path and the crossing obstacles."""
+    duration = settings.duration if settings.duration is not None else prof.duration
+    q0, waypoints = _draw_start_and_path(arm, prof, rng)
+    path = HandPath(waypoints, duration)
+    crossings = [rng.uniform(0.35, 0.65)] + ([rng.uniform(0.2, 0.8)] if rng.random() < 0.5 else [])
+    states = _nominal_states(arm, path, q0, [c * duration for c in crossings], settings.dt)
+    obstacles = [_clear_crossing(arm, prof, rng, q0, q, c * duration, f"obstacle{i + 1}")
+                 for i, (c, q) in enumerate(zip(crossings, states, strict=True))]
+    return {
+        "name": name,
+        "description": f"bench scene: {robot}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
+                       f"{len(obstacles)} crossing obstacle(s)",
+        "robot": {"source": robot, "q0": [float(v) for v in q0]},
+        "path": {"waypoints": [[float(v) for v in p] for p in waypoints], "duration": duration},
+        "obstacles": obstacles,
+        "controller": dict(prof.controller),
+        "timing": {"dt": settings.dt, "duration": duration},
+        "output": {"gif": False},
+    }
+
+
+def _hand(arm: Robot, q: Array) -> Array:
+    """The hand position [m] (2 entries for a planar arm)."""
+    data = arm.model.createData()
+    pin.framesForwardKinematics(arm.model, data, q)
+    hand = np.array(data.oMf[arm.tip_frame_id].translation)
+    return hand[:2] if arm.task == "planar" else hand
+
+
+def _in_workspace(prof: Profile, points: Array) -> bool:
+    """Every point within the profile's reach (and height)."""
+    radial = np.linalg.norm(points[:, :2], axis=1)
+    ok = bool(np.all((radial >= prof.reach[0]) & (radial <= prof.reach[1])))
+    if prof.height is not None:
+        ok &= bool(np.all((points[:, 2] >= prof.height[0]) & (points[:, 2] <= prof.height[1])))
+    return ok
+
+
+def _draw_start_and_path(arm: Robot, prof: Profile, rng: np.random.Generator) -> tuple[Array, Array]:
+    """``q0`` [rad] and the path waypoints [m], every path sample within the workspace."""
+    center, spread = np.array(prof.q0_center), np.array(prof.q0_spread)
+    lo, hi = np.maximum(center - spread, arm.lower_limits), np.minimum(center + spread, arm.upper_limits)
+    for _ in range(GEOMETRY_DRAWS):
+        q0 = rng.uniform(lo, hi)
+        points = [_hand(arm, q0)]
+        for _ in range(prof.segments):
+            angle = rng.uniform(-math.pi, math.pi)
+            direction = np.array([math.cos(angle), math.sin(angle)])
+            if prof.height is not None:
+                direction = np.append(direction, rng.uniform(-0.3, 0.3))
+            points.append(points[-1] + rng.uniform(*prof.segment_length) * direction / np.linalg.norm(direction))
+        waypoints = np.array(points)
+        samples = np.concatenate([np.linspace(a, b, 20) for a, b in itertools.pairwise(waypoints)])
+        if _in_workspace(prof, samples):
+            return q0, waypoints
+    raise ScenarioError(f"no start and path within the workspace of {arm.name!r} in {GEOMETRY_DRAWS} draws")
+
+
+def _nominal_states(arm: Robot, path: HandPath, q0: Array, times: list[float], dt: float) -> list[Array]:
+    """The arm's configurations at ``times`` [s] under plain tracking (``none``) with no obstacle."""
+    ctrl = make_controller("none", robot=arm, path=path, scene=Scene(()), dt=dt)
+    q, states = np.array(q0, dtype=float), {}
+    last = max(times)
+    for k in range(math.ceil(last / dt) + 1):
+        t = k * dt
+        for c in times:
+            if c not in states and t >= c:
+                states[c] = q.copy()
+        if len(states) == len(times):
+            break
+        q = integrate(arm, q, ctrl.step(q, t, dt), dt)
+    return [states.get(c, q) for c in times]
+
+
+def _clear_crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q0: Array, q: Array, t_c: float,
+                    name: str) -> dict[str, Any]:
+    """A :func:`_crossing` obstacle that starts at least :data:`START_CLEARANCE` away from the arm at ``q0``."""
+    for _ in range(GEOMETRY_DRAWS):
+        table = _crossing(arm, prof, rng, q, t_c, name)
+        if Evaluator(arm, scene_from_dict([table]))(q0[None, :], 0.0).min_distance[0] > START_CLEARANCE:
+            return table
+    raise ScenarioError(f"no obstacle crossing {arm.name!r} at t = {t_c:.3g} s starts clear of q0 in "
+                        f"{GEOMETRY_DRAWS} draws (a longer duration gives it room)")
+
+
+def _crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q: Array, t_c: float, name: str) -> dict[str, Any]:
+    """An obstacle table that passes a point of the intermediate links (arm at ``q``) at time ``t_c`` [s]."""
+    data = arm.model.createData()
+    pin.forwardKinematics(arm.model, data, q)
+    joints = np.array([data.oMi[j].translation for j in range(1, arm.model.njoints)])
+    segments = np.diff(joints, axis=0)
+    lengths = np.linalg.norm(segments, axis=1)
+    s = rng.uniform(0.3, 0.9) * lengths.sum()
+    i = int(np.searchsorted(np.cumsum(lengths), s))
+    i = min(i, len(lengths) - 1)
+    along = segments[i] / lengths[i]
+    point = joints[i] + along * (s - (np.cumsum(lengths)[i] - lengths[i]))
+    speed, radius = rng.uniform(*prof.speed), rng.uniform(*prof.radius)
+    if arm.task == "planar":
+        normal = np.array([-along[1], along[0], 0.0])
+        angle = rng.uniform(-math.pi / 6, math.pi / 6) + (math.pi if rng.random() < 0.5 else 0.0)
+        velocity = speed * (math.cos(angle) * normal + math.sin(angle) * along)
+        shape: dict[str, Any] = {"shape": "cylinder", "radius": radius, "length": 0.4}
+        point[2], velocity[2] = 0.0, 0.0
+    else:
+        across = rng.normal(size=3)
+        across -= across.dot(along) * along
+        velocity = speed * across / np.linalg.norm(across)
+        shape = {"shape": "sphere", "radius": radius}
+    start = point - velocity * t_c
+    dims = 2 if arm.task == "planar" else 3
+    return {"name": name, **shape, "motion": {"type": "constant_velocity", "position": [float(v) for v in start[:dims]],
+                                              "velocity": [float(v) for v in velocity[:dims]]}}

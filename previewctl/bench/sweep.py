@@ -1,0 +1,189 @@
+"""The sweep: the run matrix, what is missing from the results, and running it on a Dask cluster.
+
+Tasks are plain specs (:class:`~previewctl.bench.runs.RunSpec`, and for the scenes the robot name,
+index, seed and :class:`~previewctl.bench.scenes.SceneSettings`); each worker builds its own
+Pinocchio and Coal objects. A scene is generated once, as a task of its own that its runs depend on,
+unless ``scenes.jsonl`` already holds it. The client appends each result to ``results.jsonl`` as it
+arrives, so a sweep stopped at any point resumes with the runs that are missing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from previewctl.bench.results import append_record, read_records
+from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
+from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, generate
+from previewctl.control import params as control_params
+from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
+
+RESULTS_NAME = "results.jsonl"
+SCENES_NAME = "scenes.jsonl"
+REFERENCE_ONLY = {"oracle": "planar4"}
+"""Controllers run only on some robots: the non-causal ``oracle`` needs the planar reachability DP."""
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """What to run: robots x scenes x controller seeds x controllers x execution modes.
+
+    Attributes:
+        robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
+        scenes: scenes per robot (indices ``0 .. scenes - 1``).
+        controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
+            ``oracle`` only on planar4).
+        executions: execution modes (empty: every one of ``EXECUTION_MODES``).
+        seeds: controller seeds ``0 .. seeds - 1``.
+        scene_seed: the seed the scenes are drawn with.
+        settings: what every scene shares (duration, dt, witness).
+    """
+
+    robots: tuple[str, ...] = ("planar4",)
+    scenes: int = 10
+    controllers: tuple[str, ...] = ()
+    executions: tuple[str, ...] = ()
+    seeds: int = 1
+    scene_seed: int = 0
+    settings: SceneSettings = field(default_factory=SceneSettings)
+
+    def __post_init__(self) -> None:
+        """Check every name and count.
+
+        Raises:
+            UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
+            ParameterError: fewer than one scene or seed, no robot, a negative scene seed.
+        """
+        if not self.robots:
+            raise ParameterError(f"give at least one robot; valid: {', '.join(PROFILES)}")
+        for robot in self.robots:
+            if robot not in PROFILES:
+                raise UnknownNameError("robot", robot, PROFILES)
+        for name in self.controllers:
+            if name not in control_params.CONTROLLER_NAMES:
+                raise UnknownNameError("controller", name, control_params.CONTROLLER_NAMES)
+        for name in self.executions:
+            if name not in control_params.EXECUTION_MODES:
+                raise UnknownNameError("execution mode", name, control_params.EXECUTION_MODES)
+        for name in ("scenes", "seeds"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
+        if self.scene_seed < 0:
+            raise ParameterError(f"scene seed must be >= 0, got {self.scene_seed!r}")
+
+    def runs(self) -> list[RunSpec]:
+        """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario)."""
+        controllers = dict.fromkeys(self.controllers or control_params.CONTROLLER_NAMES)
+        executions = dict.fromkeys(self.executions or control_params.EXECUTION_MODES)
+        specs = []
+        for robot in self.robots:
+            settings = settings_hash(robot, self.scene_seed, self.settings)
+            for scene in range(self.scenes):
+                for seed in range(self.seeds):
+                    for name in controllers:
+                        if REFERENCE_ONLY.get(name, robot) != robot:
+                            continue
+                        specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
+                                  for execution in executions]
+        return specs
+
+
+@dataclass
+class SweepOutcome:
+    """What a call of :func:`run_sweep` did.
+
+    Attributes:
+        planned: runs in the matrix.
+        skipped: runs already in the results file.
+        done: runs completed now.
+        failed: ``(run, error message)`` of the runs that raised.
+    """
+
+    planned: int
+    skipped: int
+    done: int = 0
+    failed: list[tuple[RunSpec, str]] = field(default_factory=list)
+
+
+def missing_runs(sweep: Sweep, results: Path) -> tuple[list[RunSpec], int]:
+    """The runs of ``sweep`` not yet in ``results``, and how many there are in all."""
+    done = {record_key(r) for r in read_records(results)}
+    planned = sweep.runs()
+    return [spec for spec in planned if spec.key not in done], len(planned)
+
+
+def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[str, Any]], None] | None = None,
+              on_start: Callable[[int], None] | None = None) -> SweepOutcome:
+    """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``.
+
+    Args:
+        sweep: the matrix.
+        out: the output folder (created).
+        client: a ``distributed.Client``.
+        on_result: called with each result line as it is written (e.g. to advance a progress bar).
+        on_start: called with the number of runs to do, before the first is submitted.
+    """
+    from distributed import as_completed
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PreviewctlError(f"cannot create the output folder {str(out)!r}: {exc}") from exc
+    results, scenes_file = out / RESULTS_NAME, out / SCENES_NAME
+    todo, planned = missing_runs(sweep, results)
+    outcome = SweepOutcome(planned=planned, skipped=planned - len(todo))
+    if on_start is not None:
+        on_start(len(todo))
+    known = {(r["robot"], r["index"], r["settings"]): r for r in read_records(scenes_file)}
+    scene_tasks: dict[tuple[str, int, str], Any] = {}
+    futures = {}
+    for spec in todo:
+        key = (spec.robot, spec.scene, spec.settings)
+        if key not in scene_tasks:
+            if key in known:
+                stored = BenchScene(**{f.name: known[key][f.name] for f in dataclasses.fields(BenchScene)})
+                scene_tasks[key] = client.scatter(stored)
+            else:
+                scene_tasks[key] = client.submit(generate, spec.robot, spec.scene, spec.scene_seed, sweep.settings,
+                                                 pure=False)
+        futures[client.submit(run, spec, scene_tasks[key], pure=False)] = (spec, key)
+    fetched: dict[tuple[str, int, str], BenchScene] = {}
+    for future in as_completed(futures):
+        spec, key = futures[future]
+        if future.status != "finished":
+            outcome.failed.append((spec, f"{type(future.exception()).__name__}: {future.exception()}"))
+            continue
+        record = future.result()
+        if key not in fetched:
+            fetched[key] = scene_tasks[key].result()
+            if key not in known:
+                append_record(scenes_file, {**dataclasses.asdict(fetched[key]), "settings": spec.settings})
+        append_record(results, {**record, "scene_rejected": fetched[key].rejected})
+        outcome.done += 1
+        if on_result is not None:
+            on_result(record)
+    return outcome
+
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
+    """A Dask client: of the cluster at ``scheduler``, or of a ``LocalCluster`` of ``workers`` processes
+    (default: one per core), one thread each, without a dashboard."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        with Client(scheduler) as client:
+            yield client
+        return
+    count = workers if workers is not None else (os.cpu_count() or 1)
+    if count < 1:
+        raise ParameterError(f"workers must be >= 1, got {count!r}")
+    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        yield client

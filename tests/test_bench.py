@@ -1,0 +1,162 @@
+"""Tests of :mod:`previewctl.bench`: the scene generators and their witness, the sweep on a local Dask
+cluster end to end with its resume, the report, and the command's errors."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from distributed import LocalCluster
+
+from previewctl.bench.report import write_report
+from previewctl.bench.results import append_record, read_records
+from previewctl.bench.scenes import SceneSettings, generate
+from previewctl.bench.witness import witness
+from previewctl.cli.main import main
+from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, scenario_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+SHORT = SceneSettings(duration=3.0)
+"""3 s scenes: the shortest that the planar witness accepts within a few draws."""
+
+
+# ------------------------------------------------------------------------------------ scenes
+
+
+def pseudoinverse(scenario: Scenario) -> Scenario:
+    """``scenario`` with its controller executed by the paper's eq. 19 instead of the QP."""
+    params = dataclasses.replace(scenario.controller.params, execution="pseudoinverse")
+    return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
+
+
+def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness() -> None:
+    scene = generate("planar4", 1, 0, SHORT)
+    assert generate("planar4", 1, 0, SHORT).document == scene.document
+    assert generate("planar4", 2, 0, SHORT).document != scene.document
+    assert generate("planar4", 1, 1, SHORT).document != scene.document
+    scenario = scene.scenario()
+    holds, sentence = witness(scenario, SHORT)
+    assert holds and "a collision-free tracking motion exists" in sentence
+    # the first obstacle is aimed at the arm's plain-tracking motion: plain tracking (the paper's eq. 19, no
+    # damper) is hit, by a guarded link
+    run = simulate(pseudoinverse(scenario), "none")
+    assert run.collision_index is not None
+    assert 0 < run.t[run.collision_index] <= 0.65 * 3.0 + 0.01
+    assert np.isfinite(run.link_distances).all()
+
+
+def test_planar_witness_rejects_a_disc_that_runs_over_the_base() -> None:
+    """Link 1 starts at the base: a disc reaching the base at t = 1.5 s leaves no motion past it."""
+    doc = {"robot": {"source": "planar4", "q0": [0.6, 1.0, -1.2, -1.0]},
+           "path": {"waypoints": [[1.9069, 1.0417], [1.6069, 0.6417]], "duration": 3.0},
+           "obstacles": [{"name": "disc", "shape": "cylinder", "radius": 0.3, "length": 0.4,
+                          "motion": {"type": "constant_velocity", "position": [-1.5, 0.0], "velocity": [1.0, 0.0]}}]}
+    holds, sentence = witness(scenario_from_dict(doc), SHORT)
+    assert not holds
+    stuck = float(sentence.split("stuck by t = ")[1].split(" s")[0])
+    assert 1.0 <= stuck <= 1.5
+
+
+def test_spatial_scene_is_deterministic_and_has_a_hand_on_path_configuration_every_quarter_second() -> None:
+    settings = SceneSettings(duration=3.0, witness_samples=64)
+    scene = generate("panda", 0, 0, settings)
+    assert generate("panda", 0, 0, settings).document == scene.document
+    assert "exists every 0.25 s" in scene.witness
+    ball = scene.document["obstacles"][0]
+    assert ball["shape"] == "sphere" and len(ball["motion"]["velocity"]) == 3
+
+
+def test_generator_errors_name_the_bad_value() -> None:
+    with pytest.raises(UnknownNameError, match="unknown robot 'pandas'; valid: planar4, panda, xarm7"):
+        generate("pandas", 0)
+    with pytest.raises(ParameterError, match="scene index must be an integer >= 0, got -1"):
+        generate("planar4", -1)
+    with pytest.raises(ParameterError, match="duration must be at least two control periods"):
+        SceneSettings(duration=0.01)
+
+
+# ------------------------------------------------------------------------------- sweep, resume
+
+
+def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_scheduler(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setenv("PYTHONPATH", str(ROOT))  # the worker processes import this worktree's previewctl
+    out = tmp_path / "bench"
+    common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--out", str(out)]
+    assert main([*common, "--workers", "1", "--controllers", "none,gradient"]) == 0  # a local cluster
+    assert "4 runs done" in capsys.readouterr().out
+    records = read_records(out / "results.jsonl")
+    assert sorted((r["scene"], r["controller"]) for r in records) == [
+        (0, "gradient"), (0, "none"), (1, "gradient"), (1, "none")]
+    for r in records:
+        assert r["success_5mm"] == (r["collision_free"] and r["max_hand_error"] < 5e-3)
+        assert r["success_1mm"] == (r["collision_free"] and r["max_hand_error"] < 1e-3)
+        assert (r["collision_time"] is None) == r["collision_free"]
+        assert r["cycle_time_median"] <= r["cycle_time_p95"]
+    # the workers measured what an in-process run of the same scene measures
+    scene = next(s for s in read_records(out / "scenes.jsonl") if s["index"] == 1)
+    direct = simulate(pseudoinverse(scenario_from_dict(scene["document"], source=scene["document"]["name"])), "none",
+                      seed=0)
+    logged = next(r for r in records if r["scene"] == 1 and r["controller"] == "none")
+    assert logged["max_hand_error"] == pytest.approx(float(direct.hand_error.max()), abs=1e-12)
+    assert logged["collision_free"] == (direct.collision_index is None)
+    report = (out / "report.md").read_text()
+    assert "| none | pseudoinverse | 2 |" in report and "| gradient | pseudoinverse | 2 |" in report
+    assert (out / "success.png").read_bytes().startswith(b"\x89PNG")
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single"]) == 0
+    printed = capsys.readouterr().out
+    assert "2 runs done" in printed and "4 already in" in printed
+    again = read_records(out / "results.jsonl")
+    assert len(again) == 6 and again[:4] == records
+    assert sorted(r["scene"] for r in again[4:]) == [0, 1] and {r["controller"] for r in again[4:]} == {"single"}
+    assert len(read_records(out / "scenes.jsonl")) == 2  # the resume reused the stored scenes
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--robot", "pandas"], "unknown robot 'pandas'; valid: planar4, panda, xarm7"),
+    (["--scenes", "0"], "scenes must be an integer >= 1, got 0"),
+    (["--controllers", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
+    (["--executions", "lp"], "unknown execution mode 'lp'; valid: "),
+])
+def test_bench_bad_input_is_one_line_and_exit_2(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", *argv, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------------- report
+
+
+def _record(scene: int, controller: str, ok: bool) -> dict[str, object]:
+    return {"robot": "planar4", "scene": scene, "seed": 0, "controller": controller, "execution": "qp",
+            "success_1mm": ok, "success_5mm": ok, "collision_free": ok, "max_hand_error": 1e-4,
+            "cycle_time_median": 1e-3, "cycle_time_p95": 2e-3, "wall_time": 1.0, "cpu_time": 0.5}
+
+
+def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path: Path) -> None:
+    records = [_record(0, "qp", False), _record(0, "multi", True), _record(1, "qp", True),
+               _record(1, "multi", False), _record(2, "qp", True), _record(2, "multi", True)]
+    report, figure = write_report(records, [], tmp_path)
+    text = report.read_text()
+    assert "| planar4 | multi | qp | 0:0 | 1:0 |" in text
+    assert "| multi | qp | 3 | 67% | 67% | 67% |" in text and "| qp | qp | 3 | 67% |" in text
+    assert figure.read_bytes().startswith(b"\x89PNG")
+
+
+def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:
+    log = tmp_path / "results.jsonl"
+    append_record(log, {"run": 1, "clearance": float("inf")})
+    with log.open("ab") as handle:
+        handle.write(b'{"run": 2, "cle')
+    append_record(log, {"run": 3})
+    assert read_records(log) == [{"run": 1, "clearance": None}, {"run": 3}]
