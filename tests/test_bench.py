@@ -4,12 +4,14 @@ cluster end to end with its resume, the report, and the command's errors."""
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 from distributed import LocalCluster
 
+from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.scenes import SceneSettings, generate
@@ -88,7 +90,7 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     monkeypatch.setenv("PYTHONPATH", str(ROOT))  # the worker processes import this worktree's previewctl
     out = tmp_path / "bench"
     common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--out", str(out)]
-    assert main([*common, "--workers", "1", "--controllers", "none,gradient"]) == 0  # a local cluster
+    assert main([*common, "--workers", "1", "--controllers", "none,gradient", "--keep", "1"]) == 0  # a local cluster
     assert "4 runs done" in capsys.readouterr().out
     records = read_records(out / "results.jsonl")
     assert sorted((r["scene"], r["controller"]) for r in records) == [
@@ -108,9 +110,20 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     report = (out / "report.md").read_text()
     assert "| none | pseudoinverse | 2 |" in report and "| gradient | pseudoinverse | 2 |" in report
     assert (out / "success.png").read_bytes().startswith(b"\x89PNG")
+    # kept: per controller and execution the first failure and the first success, each with its replay
+    kept = sorted(p.name for p in (out / "runs").iterdir())
+    assert kept == sorted(run_folder(r) for r in runs_to_keep(records, failures=1))
+    for name in kept:
+        written = {p.name for p in (out / "runs" / name).iterdir()}
+        assert {"run.npz", "summary.json", "strobe.png", "replay.html"} <= written
+        kept_run = next(r for r in records if run_folder(r) == name)
+        assert json.loads((out / "runs" / name / "summary.json").read_text())["max_hand_error"] == pytest.approx(
+            kept_run["max_hand_error"], abs=1e-12)  # simulated again, the same run
+    assert f"[replay.html](runs/{kept[0]}/replay.html)" in (out / "report.md").read_text()
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single"]) == 0
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single",
+                     "--keep", "0"]) == 0
     printed = capsys.readouterr().out
     assert "2 runs done" in printed and "4 already in" in printed
     again = read_records(out / "results.jsonl")
@@ -160,3 +173,21 @@ def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:
         handle.write(b'{"run": 2, "cle')
     append_record(log, {"run": 3})
     assert read_records(log) == [{"run": 1, "clearance": None}, {"run": 3}]
+
+
+def _record(scene: int, controller: str, execution: str, success: bool) -> dict[str, object]:
+    return {"robot": "planar4", "scene": scene, "seed": 0, "controller": controller, "execution": execution,
+            "success_5mm": success}
+
+
+def test_kept_runs_are_the_first_failures_one_success_and_a_contrast_each_way() -> None:
+    records = [_record(k, "none", "qp", k == 3) for k in range(5)]
+    records += [_record(k, "multi", "qp", k in (1, 2)) for k in range(5)] + [_record(k, "qp", "qp", k in (0, 2))
+                                                                             for k in range(5)]
+    kept = {run_folder(r) for r in runs_to_keep(records, failures=2)}
+    assert {"planar4_000_s0_none_qp", "planar4_001_s0_none_qp", "planar4_003_s0_none_qp"} <= kept  # 2 fail, 1 ok
+    assert "planar4_002_s0_none_qp" not in kept and "planar4_004_s0_none_qp" not in kept
+    pairs = contrasts(records)
+    assert {key: (a["scene"], b["scene"]) for key, (a, b) in pairs.items()} == {
+        ("planar4", True): (1, 1), ("planar4", False): (0, 0)}  # multi wins on 1, loses on 0
+    assert {"planar4_001_s0_multi_qp", "planar4_001_s0_qp_qp", "planar4_000_s0_multi_qp"} <= kept

@@ -11,9 +11,11 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
+from previewctl.viz.replay import REPLAY_NAME
 
 REPORT_NAME = "report.md"
 FIGURE_NAME = "success.png"
@@ -78,6 +80,29 @@ def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
     return [*lines, ""]
 
 
+def _kept(records: list[dict[str, Any]], out: Path) -> list[str]:
+    """The kept runs that are on disk: the multi-vs-qp contrasts side by side, then the list with replays."""
+    present = [r for r in runs_to_keep(records) if (out / RUNS_FOLDER / run_folder(r) / REPLAY_NAME).is_file()]
+    if not present:
+        return []
+    lines = ["## Kept runs (log, figures and 3-D replay in `runs/`)", ""]
+    preview, baseline = CONTRAST
+    for (robot, wins), pair in sorted(contrasts(records).items()):
+        folders = [f"{RUNS_FOLDER}/{run_folder(r)}" for r in pair]
+        if not all((out / folder / "strobe.png").is_file() for folder in folders):
+            continue
+        verb = "succeeds where" if wins else "fails where"
+        lines += [f"{robot}, scene {pair[0]['scene']}: `{preview}` {verb} `{baseline}` "
+                  f"{'fails' if wins else 'succeeds'} (both under the QP). Left `{preview}`, right `{baseline}`.", "",
+                  f"![{preview}]({folders[0]}/strobe.png) ![{baseline}]({folders[1]}/strobe.png)", ""]
+    lines += ["| run | success < 5 mm | replay |", "|---|---|---|"]
+    for r in present:
+        folder = f"{RUNS_FOLDER}/{run_folder(r)}"
+        verdict = "yes" if r["success_5mm"] else "no"
+        lines.append(f"| {run_folder(r)} | {verdict} | [{REPLAY_NAME}]({folder}/{REPLAY_NAME}) |")
+    return [*lines, ""]
+
+
 def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], out: Path) -> tuple[Path, Path]:
     """Write ``report.md`` and ``success.png`` into ``out`` from the result and scene records."""
     groups = _groups(records)
@@ -94,6 +119,7 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
     lines += _against_baseline(records)
+    lines += _kept(records, out)
     figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}
                            for robot, cells in groups.items()}, out / FIGURE_NAME)
     lines += [f"![success rates]({FIGURE_NAME})", ""]

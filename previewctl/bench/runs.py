@@ -20,6 +20,7 @@ from previewctl.bench.metrics import run_metrics
 from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, cached_robot
 from previewctl.control.params import ControllerSpec, ExecutionMode
 from previewctl.index.evaluator import Evaluator
+from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 
@@ -77,15 +78,21 @@ def _scenario(document: str) -> Scenario:
     return scenario_from_dict(data, source=data["name"])
 
 
-def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
-    """Simulate ``spec`` on ``scene``: the result line (the spec's fields, the metrics, the wall and CPU time
-    of the worker [s]; on a shared host the CPU time is the fairer cost)."""
-    start, cpu = time.perf_counter(), time.process_time()
+def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult]:
+    """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller and execution)
+    and its log (exact check on the robot's mesh geometry)."""
     base = _scenario(json.dumps(scene.document, sort_keys=True))
     execution = cast(ExecutionMode, spec.execution)  # ControllerParams checks the value
     params = dataclasses.replace(base.controller.params, execution=execution)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
-    result = simulate(scenario, seed=spec.seed, exact_evaluator=exact)
+    return scenario, simulate(scenario, seed=spec.seed, exact_evaluator=exact)
+
+
+def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
+    """Simulate ``spec`` on ``scene``: the result line (the spec's fields, the metrics, the wall and CPU time
+    of the worker [s]; on a shared host the CPU time is the fairer cost)."""
+    start, cpu = time.perf_counter(), time.process_time()
+    scenario, result = simulate_spec(spec, scene)
     return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result),
             "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

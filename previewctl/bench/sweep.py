@@ -17,11 +17,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
 from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, generate
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
+from previewctl.viz.replay import REPLAY_NAME
 
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
@@ -169,6 +171,33 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
         if on_result is not None:
             on_result(record)
     return outcome
+
+
+def keep_runs(out: Path, client: Any, failures: int, on_done: Callable[[], None] | None = None,
+              on_start: Callable[[int], None] | None = None) -> list[str]:
+    """Write the kept runs (:mod:`previewctl.bench.keep`) of ``out/results.jsonl`` that are not yet in
+    ``out/runs/``, on the Dask ``client``; the folders written (the ones that raised are left out)."""
+    scenes = {(r["robot"], r["index"], r["settings"]): r for r in read_records(out / SCENES_NAME)}
+    fields = [f.name for f in dataclasses.fields(RunSpec)]
+    todo = [r for r in runs_to_keep(read_records(out / RESULTS_NAME), failures)
+            if not (out / RUNS_FOLDER / run_folder(r) / REPLAY_NAME).is_file()]
+    if on_start is not None:
+        on_start(len(todo))
+    futures = []
+    for r in todo:
+        stored = scenes[(r["robot"], r["scene"], r["settings"])]
+        scene = BenchScene(**{f.name: stored[f.name] for f in dataclasses.fields(BenchScene)})
+        spec = RunSpec(**{name: r[name] for name in fields})
+        futures.append(client.submit(keep_run, spec, scene, str(out / RUNS_FOLDER / run_folder(r)), pure=False))
+    from distributed import as_completed
+
+    written = []
+    for future in as_completed(futures):
+        if future.status == "finished":
+            written.append(future.result())
+        if on_done is not None:
+            on_done()
+    return written
 
 
 @contextmanager

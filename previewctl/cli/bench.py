@@ -9,10 +9,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from previewctl.bench.keep import FAILURES_KEPT
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
 from previewctl.bench.scenes import PROFILES, SceneSettings
-from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, run_sweep
+from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import Commands
 from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES
 from previewctl.errors import ParameterError
@@ -28,7 +29,8 @@ def add_parser(commands: Commands) -> None:
         "planar4, a collision-free hand-on-path configuration every 0.25 s on spatial arms), run every controller "
         "(the non-causal oracle only on planar4) with every execution mode and controller seed, and write "
         "OUT/results.jsonl (one line per run, appended as runs finish), OUT/scenes.jsonl, OUT/report.md and "
-        "OUT/success.png. A rerun does only the runs missing from OUT/results.jsonl. Runs on a local Dask cluster "
+        "OUT/success.png, and keep the failures (and one success per controller) with their figures and 3-D replays "
+        "in OUT/runs/. A rerun does only the runs missing from OUT/results.jsonl. Runs on a local Dask cluster "
         "(one worker process per core) or on the cluster at --scheduler.",
         epilog="example: previewctl bench --robot planar4,panda --scenes 10 --workers 2 --out out/bench",
     )
@@ -47,6 +49,10 @@ def add_parser(commands: Commands) -> None:
     option("--workers", type=int, metavar="N", help="local cluster: worker processes (default: one per core)")
     option("--scheduler", metavar="ADDRESS", help="address of a running Dask scheduler (e.g. tcp://host:8786) "
            "instead of a local cluster; its workers need this same previewctl")
+    option("--keep", type=int, default=FAILURES_KEPT, metavar="N",
+           help=f"failed runs kept per robot, controller and execution mode, with their log, figures and 3-D replay "
+           f"in OUT/runs/ (default {FAILURES_KEPT}; one success each and the multi-vs-qp contrasts are kept too; "
+           "0 keeps nothing)")
     option("--report-only", action="store_true", help="only remake report.md and success.png")
     bench.set_defaults(func=cmd_bench)
 
@@ -59,6 +65,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """Run the missing runs of the sweep, then write the report; exit 1 if a run failed."""
     out = Path(args.out)
     if not args.report_only:
+        if args.keep < 0:
+            raise ParameterError(f"--keep must be >= 0, got {args.keep}")
         if args.workers is not None and args.scheduler is not None:
             raise ParameterError("--workers sizes a local cluster; it cannot be used with --scheduler")
         sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controllers),
@@ -68,9 +76,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
         bars: list[tqdm] = []
         try:
             with dask_client(args.scheduler, args.workers) as client:
-                outcome = run_sweep(sweep, out, client, on_result=lambda _: bars[0].update(1),
+                outcome = run_sweep(sweep, out, client, on_result=lambda _: bars[-1].update(1),
                                     on_start=lambda n: bars.append(tqdm(total=n, desc="scene-runs", unit="run",
                                                                         file=sys.stderr, mininterval=1.0)))
+                if args.keep > 0:
+                    keep_runs(out, client, args.keep, on_done=lambda: bars[-1].update(1),
+                              on_start=lambda n: bars.append(tqdm(total=n, desc="kept runs (replays)", unit="run",
+                                                                  file=sys.stderr, mininterval=1.0)))
         finally:
             for bar in bars:
                 bar.close()
