@@ -73,7 +73,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     error = f"{metre(summary['max_hand_error'])} (tolerance {metre(summary['tolerance'])})"
     rows = [
         ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
-        ("controller", summary["controller"]),
+        ("controller", f"{summary['controller']}, executed by "
+                       f"{'the QP' if summary['execution'] == 'qp' else 'the pseudo-inverse eq. 19'}"
+                       + (f" (damper slack up to {summary['max_slack']:.3f} m/s)" if summary["max_slack"] > 0 else "")),
         ("success", verdict_text(summary)),
         ("collision-free", collision),
         ("max hand error", error),
