@@ -2,7 +2,9 @@
 
 For each scene, a ``none`` controller is stepped along a recorded run (the configurations a ``qp`` run
 visits), once with ``execution = "pseudoinverse"`` and once with ``"qp"``; the QP layer's own cost is the
-difference of the medians. Prints the medians, the p95 and the ratio to the pseudo-inverse cycle.
+difference of the medians. Prints the medians, the p95 and the ratio to the pseudo-inverse cycle. Times are
+the process's CPU time per cycle (``time.process_time``), so that another job on the host does not inflate
+them; ``--wall`` measures wall time instead.
 
 Targets (issue 12): QP layer ≤ 0.3 ms per cycle on planar4, ≤ 1 ms on the Panda (median).
 
@@ -14,6 +16,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -29,15 +32,16 @@ def _scenario(name: str) -> pc.Scenario:
     return pc.load_scenario(shipped_scenarios_dir() / f"{name}.toml")
 
 
-def cycle_times(scenario: pc.Scenario, execution: str, qs: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Wall time [s] of ``step`` at each recorded state, for a fresh ``none`` controller."""
+def cycle_times(scenario: pc.Scenario, execution: str, qs: np.ndarray, times: np.ndarray,
+                clock: Callable[[], float] = time.process_time) -> np.ndarray:
+    """Time [s] of ``step`` at each recorded state on ``clock``, for a fresh ``none`` controller."""
     params = dataclasses.replace(scenario.controller.params, execution=execution)
     ctrl = pc.make_controller(scenario, name="none", params=params)
     out = np.empty(len(qs))
     for k, (q, t) in enumerate(zip(qs, times, strict=True)):
-        start = time.perf_counter()
+        start = clock()
         ctrl.step(q, float(t), 0.01)
-        out[k] = time.perf_counter() - start
+        out[k] = clock() - start
     return out
 
 
@@ -45,15 +49,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeat", type=int, default=3, help="passes over the recorded states (default 3)")
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated time recorded per scene [s]")
+    parser.add_argument("--wall", action="store_true", help="wall time instead of CPU time")
     args = parser.parse_args()
+    clock = time.perf_counter if args.wall else time.process_time
     print(f"{'scene':<16}{'nv':>3}{'pinv med':>10}{'qp med':>9}{'qp p95':>9}{'QP layer':>10}{'ratio':>7}")
     for name in SCENES:
         scenario = _scenario(name)
         short = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=args.seconds))
         run = pc.simulate(short, "qp")
         qs, times = np.asarray(run.q), np.asarray(run.t)
-        pinv = np.concatenate([cycle_times(scenario, "pseudoinverse", qs, times) for _ in range(args.repeat)])
-        qp = np.concatenate([cycle_times(scenario, "qp", qs, times) for _ in range(args.repeat)])
+        pinv = np.concatenate([cycle_times(scenario, "pseudoinverse", qs, times, clock) for _ in range(args.repeat)])
+        qp = np.concatenate([cycle_times(scenario, "qp", qs, times, clock) for _ in range(args.repeat)])
         layer = np.median(qp) - np.median(pinv)
         print(f"{name:<16}{scenario.robot.nv:>3}{np.median(pinv) * 1e3:>8.3f}ms{np.median(qp) * 1e3:>7.3f}ms"
               f"{np.percentile(qp, 95) * 1e3:>7.3f}ms{layer * 1e3:>8.3f}ms{np.median(qp) / np.median(pinv):>7.2f}")

@@ -166,3 +166,22 @@ def test_safety_distance_must_be_below_the_influence_distance() -> None:
         ControllerParams(safety_distance=0.4)
     with pytest.raises(ParameterError, match="execution"):
         dataclasses.replace(ControllerParams(), execution="fast")
+
+
+def test_bounds_brake_linearly_within_the_margin_and_leave_continuous_joints_their_speed(
+    panda: Robot, kinova: Robot
+) -> None:
+    """Closed form: towards a limit at distance a, min(q̇max, q̇max · a / (0.1 · range), a / dt)."""
+    execution = QPExecution(panda, pc.Scene(), ControllerParams())
+    q = np.array([0.0, 0.0, 0.0, -0.0698 - 0.05, 0.0, 1.8, 0.0])  # joint 4, 5 cm below its upper limit
+    lower, upper = execution.bounds(q, 0.01)
+    span = -0.0698 + 3.0718
+    assert upper[3] == pytest.approx(2.175 * 0.05 / (0.1 * span), rel=1e-12)
+    assert lower[3] == pytest.approx(-2.175) and upper[0] == pytest.approx(2.175)
+    _, tight = execution.bounds(q, 0.2)  # a long period: a / dt binds first
+    assert tight[3] == pytest.approx(0.05 / 0.2, rel=1e-12)
+    lower, upper = QPExecution(kinova, pc.Scene(), ControllerParams()).bounds(pin.neutral(kinova.model), 0.01)
+    continuous = kinova.joints.continuous
+    assert continuous.any() and np.isfinite(upper).all()
+    np.testing.assert_allclose(upper[continuous], kinova.joints.velocity[continuous])
+    np.testing.assert_allclose(lower[continuous], -kinova.joints.velocity[continuous])

@@ -92,7 +92,15 @@ class QPExecution:
         self.robot, self.scene, self.params = robot, scene, params
         self.clearance = Clearance(robot, scene)
         self.data = robot.model.createData()
-        self.speed = effective_velocity_limits(robot, params.velocity_scale)
+        facts = robot.joints
+        speed = effective_velocity_limits(robot, params.velocity_scale)
+        self._speed = np.where(np.isfinite(speed), speed, 1e3)  # [rad/s] a finite box for the solver
+        self._index, self._upper, self._lower = facts.q_index, facts.upper, facts.lower
+        with np.errstate(invalid="ignore"):
+            margin = params.limit_margin * (facts.upper - facts.lower)  # inf or nan for unlimited joints
+        braking = np.isfinite(margin) & (margin > 0)
+        self._brake_rate = np.where(braking, self._speed / np.where(braking, margin, 1.0), np.inf)  # [1/s]
+        self._identity = np.eye(robot.nv)
 
     def dampers(self, q: Array, t: float) -> Dampers:
         """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]."""
@@ -122,29 +130,23 @@ class QPExecution:
         return (positions[1] - positions[0]) / _OBSTACLE_DT
 
     def bounds(self, q: Array, dt: float) -> tuple[Array, Array]:
-        """Joint velocity bounds [rad/s] ``(nv,)`` each: speed limits, braking near the position limits."""
-        facts = self.robot.joints
-        position = np.asarray(q, dtype=float)[facts.q_index]
-        with np.errstate(invalid="ignore"):
-            margin = self.params.limit_margin * (facts.upper - facts.lower)  # inf or nan for unlimited joints
-        braking = np.isfinite(margin) & (margin > 0)
-        to_upper = np.where(np.isfinite(facts.upper), facts.upper - position, np.inf)
-        to_lower = np.where(np.isfinite(facts.lower), position - facts.lower, np.inf)
-        speed = np.where(np.isfinite(self.speed), self.speed, 1e3)  # a finite box for the solver
-        with np.errstate(divide="ignore", invalid="ignore"):
-            brake_up = np.where(braking, np.clip(to_upper / margin, 0.0, 1.0), 1.0)
-            brake_down = np.where(braking, np.clip(to_lower / margin, 0.0, 1.0), 1.0)
-        upper = np.minimum(speed * brake_up, np.maximum(to_upper, 0.0) / dt)
-        lower = -np.minimum(speed * brake_down, np.maximum(to_lower, 0.0) / dt)
+        """Joint velocity bounds [rad/s] ``(nv,)`` each: speed limits, braking near the position limits.
+
+        Towards a limit at distance ``a ≥ 0`` the bound is ``min(q̇max, q̇max · a / margin, a / dt)``, i.e.
+        ``min(q̇max, a · min(q̇max / margin, 1 / dt))``; a joint without limits (``a = ∞``) keeps ``q̇max``.
+        """
+        position = np.asarray(q, dtype=float)[self._index]
+        rate = np.minimum(self._brake_rate, 1.0 / dt)
+        upper = np.minimum(self._speed, np.maximum(self._upper - position, 0.0) * rate)
+        lower = -np.minimum(self._speed, np.maximum(position - self._lower, 0.0) * rate)
         return lower, upper
 
     def __call__(self, t: float, q: Array, state: ControlState, info: ControlInfo) -> tuple[Array, ControlInfo]:
         """The executed ``q̇`` [rad/s] for the law's cycle ``info``, and ``info`` completed with the QP's report."""
         reference = info.qdot_task + info.qdot_null
         J = state.kin.J_task[0]
-        nv = reference.size
         W = self.params.task_weight
-        P = W * (J.T @ J) + np.eye(nv)
+        P = W * (J.T @ J) + self._identity
         c = -P @ reference
         lower, upper = self.bounds(q, state.dt)
         rows = self.dampers(q, t)
