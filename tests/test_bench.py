@@ -175,14 +175,14 @@ def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:
     assert read_records(log) == [{"run": 1, "clearance": None}, {"run": 3}]
 
 
-def _record(scene: int, controller: str, execution: str, success: bool) -> dict[str, object]:
+def _outcome(scene: int, controller: str, execution: str, success: bool) -> dict[str, object]:
     return {"robot": "planar4", "scene": scene, "seed": 0, "controller": controller, "execution": execution,
             "success_5mm": success}
 
 
 def test_kept_runs_are_the_first_failures_one_success_and_a_contrast_each_way() -> None:
-    records = [_record(k, "none", "qp", k == 3) for k in range(5)]
-    records += [_record(k, "multi", "qp", k in (1, 2)) for k in range(5)] + [_record(k, "qp", "qp", k in (0, 2))
+    records = [_outcome(k, "none", "qp", k == 3) for k in range(5)]
+    records += [_outcome(k, "multi", "qp", k in (1, 2)) for k in range(5)] + [_outcome(k, "qp", "qp", k in (0, 2))
                                                                              for k in range(5)]
     kept = {run_folder(r) for r in runs_to_keep(records, failures=2)}
     assert {"planar4_000_s0_none_qp", "planar4_001_s0_none_qp", "planar4_003_s0_none_qp"} <= kept  # 2 fail, 1 ok
