@@ -58,8 +58,8 @@ def simulate(
 
     Args:
         scenario: what to run.
-        controller_name: override of the scenario's controller (``none``, ``gradient``, ``single``,
-            ``multi``, ``reach``); its parameters stay those of the scenario.
+        controller_name: override of the scenario's controller (one of
+            :data:`~previewctl.control.params.CONTROLLER_NAMES`); its parameters stay those of the scenario.
         progress: called as ``progress(fraction, t)`` after every step.
         stop_on_collision: stop at the first exact collision (default) or log it and go on.
         seed: random seed of the controller (default: the scenario's).
