@@ -83,22 +83,27 @@ CANONICAL_SCENES: tuple[str, ...] = ("paper_fitted", "paper_planar")
 """The canonical planar scenes (``scenarios/<name>.toml``), the one fitted to the paper's tables first."""
 
 
+def _require(kind: str, names: Sequence[str], valid: Sequence[str]) -> None:
+    """Raise :class:`PreviewctlError` naming the first of ``names`` that is not in ``valid`` (and the valid ones)."""
+    for name in names:
+        if name not in valid:
+            raise PreviewctlError(f"unknown {kind} {name!r}; valid: {', '.join(valid)}")
+
+
 def canonical_scenario(name: str = CANONICAL_SCENES[0]) -> Scenario:
     """A canonical planar scene, ``scenarios/<name>.toml`` (default: the Table-3 fit, ``paper_fitted``).
 
     Raises:
         PreviewctlError: ``name`` is not one of :data:`CANONICAL_SCENES`.
     """
-    if name not in CANONICAL_SCENES:
-        raise PreviewctlError(f"unknown canonical scene {name!r}; valid: {', '.join(CANONICAL_SCENES)}")
+    _require("canonical scene", [name], CANONICAL_SCENES)
     return load_scenario(shipped_scenarios_dir() / f"{name}.toml")
 
 
 def with_controller(scenario: Scenario, name: str, execution: str | None = None) -> Scenario:
     """``scenario`` with controller ``name``, the paper's parameters for it and ``execution`` (default: the
     scenario's)."""
-    if name not in PAPER_CONTROLLERS:
-        raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
+    _require("controller", [name], tuple(PAPER_CONTROLLERS))
     changes = dict(PAPER_CONTROLLERS[name]) | ({} if execution is None else {"execution": execution})
     params = dataclasses.replace(scenario.controller.params, **changes)
     return dataclasses.replace(scenario, controller=ControllerSpec(name, params))
@@ -120,15 +125,9 @@ def paper_plan(scenes: Sequence[str], controllers: Sequence[str], executions: Se
     Raises:
         PreviewctlError: an unknown scene, controller or execution name.
     """
-    for name in controllers:
-        if name not in PAPER_CONTROLLERS:
-            raise PreviewctlError(f"unknown controller {name!r}; valid: {', '.join(PAPER_CONTROLLERS)}")
-    for execution in executions:
-        if execution not in EXECUTION_MODES:
-            raise PreviewctlError(f"unknown execution {execution!r}; valid: {', '.join(EXECUTION_MODES)}")
-    for scene in scenes:
-        if scene not in CANONICAL_SCENES:
-            raise PreviewctlError(f"unknown canonical scene {scene!r}; valid: {', '.join(CANONICAL_SCENES)}")
+    _require("controller", controllers, tuple(PAPER_CONTROLLERS))
+    _require("execution", executions, EXECUTION_MODES)
+    _require("canonical scene", scenes, CANONICAL_SCENES)
     runs = paper_runs(controllers, executions)
     return [PaperRun(scene, label, *runs[label]) for scene in scenes for label in runs]
 
