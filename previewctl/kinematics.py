@@ -149,6 +149,14 @@ def kinematics_reader(robot: Robot, data: pin.Data | None = None) -> FrameKinema
     return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data)
 
 
+def hand_placement(robot: Robot, q: Array, data: pin.Data) -> tuple[Array, Array]:
+    """Hand position ``(3,)`` [m] and rotation ``(3, 3)`` at one validated configuration ``q`` ``(nq,)``, computed
+    in ``data`` (forward kinematics only: no Jacobian)."""
+    pin.forwardKinematics(robot.model, data, q)
+    placement = pin.updateFramePlacement(robot.model, data, robot.tip_frame_id)
+    return placement.translation.copy(), placement.rotation.copy()
+
+
 def integrate(robot: Robot, q: Array, qdot: Array, dt: float) -> Array:
     """The configuration reached from ``q`` ``(nq,)`` moving at ``qdot`` ``(nv,)`` [rad/s] for ``dt`` [s].
 

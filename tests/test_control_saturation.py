@@ -103,7 +103,7 @@ def _state(robot: Robot, q: Array, velocity: Array) -> ControlState:
 
 
 def test_track_is_the_plain_eq19_when_no_limit_is_active(panda: Robot) -> None:
-    params = ControllerParams()
+    params = ControllerParams(step_correction=False)  # eq. 19 as printed
     lo, hi = panda.lower_limits, panda.upper_limits
     rng = np.random.default_rng(11)
     for _ in range(50):
@@ -122,7 +122,7 @@ def test_track_is_the_plain_eq19_when_no_limit_is_active(panda: Robot) -> None:
 def test_track_holds_the_hand_when_a_joint_is_at_its_limit(panda: Robot) -> None:
     q = np.array([-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785])
     q[3] = panda.upper_limits[3]  # the elbow at its upper limit
-    params = ControllerParams(feedback_gain=0.0)
+    params = ControllerParams(feedback_gain=0.0, step_correction=False)
     J = kinematics(panda, q[None, :]).J_task[0]
     pushes = np.linalg.pinv(J)[3]  # hand directions that drive the elbow up under the minimum-norm solution
     velocity = 0.1 * pushes / np.linalg.norm(pushes)

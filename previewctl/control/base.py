@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import pinocchio as pin
 
 from previewctl.control.params import ControllerParams
 from previewctl.kinematics import Kinematics
@@ -31,12 +32,14 @@ class ControlState:
         path: the desired hand path.
         dt: how long the command will be applied [s] (the position limits keep ``q + q̇ dt`` inside).
         frame_due: whether a camera frame arrives at this cycle (GA-based laws run a generation).
+        data: a Pinocchio ``Data`` of the arm the law may use for predictions (``None``: one is made when needed).
     """
 
     kin: Kinematics
     path: HandPath
     dt: float
     frame_due: bool
+    data: pin.Data | None = None
 
 
 @dataclass(frozen=True)

@@ -88,6 +88,7 @@ class Controller:
         self.frame = positive_period(frame, "frame")
         self.dt = positive_period(dt, "dt")
         self._reader = kinematics_reader(robot)  # built once: each step only reads through it
+        self._scratch = robot.model.createData()  # the law's predictions (eq. 19's step correction)
         self._last_frame: int | None = None
         self._last_t: float | None = None
         self._last_info: ControlInfo | None = None
@@ -142,7 +143,7 @@ class Controller:
         period = self._period(now, dt)
         frame = frame_index(now, self.frame)
         kin = kinematics(self.robot, Q, reader=self._reader)
-        state = ControlState(kin, self.path, period, frame_due=frame != self._last_frame)
+        state = ControlState(kin, self.path, period, frame_due=frame != self._last_frame, data=self._scratch)
         qdot, info = self.law.command(now, Q[0], state)
         if self.execution is not None:
             qdot, info = self.execution(now, Q[0], state, info)

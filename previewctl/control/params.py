@@ -84,6 +84,10 @@ class ControllerParams(Checked):
         gradient_gain: ``K_g`` of the ``gradient`` mode, ``v = K_g ∇S`` [rad²/s per unit of S]
             (S is in the index's length unit, ~10⁴ for the paper's arm in cm, hence the small default).
         feedback_gain: ``K_p`` on the hand error [1/s].
+        step_correction: eq. 19's task term is corrected for the period ``dt`` it is applied over: the hand
+            error predicted at ``t + dt`` (forward kinematics of ``q ⊕ q̇ dt``) is brought to what the
+            continuous law would leave, ``exp(−K_p dt) e`` (:func:`~previewctl.control.tracking.track`).
+            ``False`` is the paper's eq. 19 as printed (``ṙ_d(t) + K_p e`` held over the period).
         damping: ``λ_max`` of the damped least-squares inverse [m/rad] (0 disables damping).
         singular_threshold: ``ε``: damping starts when ``σ_min(J) < ε`` [m/rad].
         velocity_scale: fraction of the URDF joint speed limits that the controller may use, in (0, 1].
@@ -118,6 +122,7 @@ class ControllerParams(Checked):
     gain: Gains = (1.0,)
     gradient_gain: Gains = (1e-4,)
     feedback_gain: NonNegative = 5.0
+    step_correction: Flag = True
     damping: NonNegative = 0.05
     singular_threshold: Positive = 0.05
     velocity_scale: Annotated[Finite, interval(0, 1, "(]")] = 1.0
