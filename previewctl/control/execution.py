@@ -10,8 +10,9 @@ preview pull, a gradient or zero), the QP is
                 n_kᵀ J_k q̇ ≤ ξ (d_k − d_s)/(d_i − d_s) + n_kᵀ v_obs,k      (one damper per pair with d_k < d_i)
 
 * Weights: the hand term has weight ``W = task_weight`` (10⁴ by default) and the joint term weight 1.
-  Both terms vanish at ``q̇ = q̇_ref``, so when no constraint is active the QP returns eq. 19's command
-  itself (to the solver's precision, ~1e-12): the paper's controller is the unconstrained case. When a
+  Both terms vanish at ``q̇ = q̇_ref``, so when ``q̇_ref`` meets every constraint it is the QP's solution:
+  it is returned as it is, without calling the solver (most cycles), and the paper's controller is the
+  unconstrained case exactly. When a
   constraint binds, the joints give way first: a hand deviation costs ``W`` times more than the same
   joint-space deviation, so the hand keeps its priority while the null-space motion yields.
 * Dampers: ``d_k`` [m] is the Coal distance of pair ``k`` (guarded geometry, obstacle), ``n_k`` the unit
@@ -50,8 +51,8 @@ from previewctl.scene.shapes import Scene
 from previewctl.types import Array, IntArray
 
 SOLVER = "daqp"
-_CYCLE = (1, 2, 0)
-_CYCLE2 = (2, 0, 1)
+_CYCLE = np.array([1, 2, 0])
+_CYCLE2 = np.array([2, 0, 1])
 _OBSTACLE_DT = 1e-3  # [s] forward difference of the obstacles' placements
 _ACTIVE_TOL = 1e-9  # [rad/s], [m/s]: a constraint within this of its bound counts as active
 
@@ -101,33 +102,42 @@ class QPExecution:
         braking = np.isfinite(margin) & (margin > 0)
         self._brake_rate = np.where(braking, self._speed / np.where(braking, margin, 1.0), np.inf)  # [1/s]
         self._identity = np.eye(robot.nv)
+        self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
+        support = np.zeros((robot.model.njoints, robot.nv))  # the velocity columns that move each joint
+        for j in range(1, robot.model.njoints):
+            for s in robot.model.supports[j]:
+                if s > 0:
+                    joint = robot.model.joints[s]
+                    support[j, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        self._pair_support = support[self.clearance.pair_joints]
+        self._velocities = np.zeros((len(scene.obstacles), 3))
+        self._velocity_time = np.nan
 
     def dampers(self, q: Array, t: float) -> Dampers:
         """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]."""
         p = self.params
-        model, data = self.robot.model, self.data
-        pin.computeJointJacobians(model, data, q)
+        pin.computeJointJacobians(self.robot.model, self.data, q)
         self.clearance.set_time(t)
-        near, w = self.clearance.witnesses(data, within=p.influence_distance)
-        joints = self.clearance.pair_joints[near]
-        J = np.array([pin.getJointJacobian(model, data, int(j), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-                      for j in joints]).reshape(-1, 6, model.nv)
-        lever = w.robot_point - np.array([data.oMi[int(j)].translation for j in joints]).reshape(-1, 3)
-        # n·(v_joint + ω × lever) = n·v_joint + (lever × n)·ω
-        G = np.einsum("ri,rin->rn", w.normal, J[:, :3]) + np.einsum("ri,rin->rn", _cross(lever, w.normal), J[:, 3:])
-        obstacles = self.clearance.pair_obstacles[near]
-        obstacle_speed = np.array([w.normal[r] @ self._obstacle_velocity(int(o), t) for r, o in enumerate(obstacles)])
+        near, w = self.clearance.witnesses(self.data, within=p.influence_distance)
+        # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
+        # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
+        J = self._joint_J
+        G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
+        obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
+        obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
         approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
-        return Dampers(G, approach + obstacle_speed.reshape(-1), w.distance, near)
+        return Dampers(G, approach + obstacle_speed, w.distance, near)
 
-    def _obstacle_velocity(self, index: int, t: float) -> Array:
-        """Velocity [m/s] of obstacle ``index`` at time ``t`` [s]: the motions translate the obstacles (their
-        rotation is fixed), so every point of an obstacle has it."""
-        motion = self.scene.obstacles[index].motion
-        if isinstance(motion, Static):
-            return np.zeros(3)
-        positions = motion.positions(np.array([t, t + _OBSTACLE_DT]))
-        return (positions[1] - positions[0]) / _OBSTACLE_DT
+    def _obstacle_velocities(self, t: float) -> Array:
+        """Velocities [m/s] ``(O, 3)`` of the obstacles at time ``t`` [s]: the motions translate the obstacles (their
+        rotation is fixed), so every point of an obstacle has its obstacle's."""
+        if t != self._velocity_time:
+            for k, obstacle in enumerate(self.scene.obstacles):
+                if not isinstance(obstacle.motion, Static):
+                    positions = obstacle.motion.positions(np.array([t, t + _OBSTACLE_DT]))
+                    self._velocities[k] = (positions[1] - positions[0]) / _OBSTACLE_DT
+            self._velocity_time = t
+        return self._velocities
 
     def bounds(self, q: Array, dt: float) -> tuple[Array, Array]:
         """Joint velocity bounds [rad/s] ``(nv,)`` each: speed limits, braking near the position limits.
@@ -144,17 +154,19 @@ class QPExecution:
     def __call__(self, t: float, q: Array, state: ControlState, info: ControlInfo) -> tuple[Array, ControlInfo]:
         """The executed ``q̇`` [rad/s] for the law's cycle ``info``, and ``info`` completed with the QP's report."""
         reference = info.qdot_task + info.qdot_null
-        J = state.kin.J_task[0]
-        W = self.params.task_weight
-        P = W * (J.T @ J) + self._identity
-        c = -P @ reference
         lower, upper = self.bounds(q, state.dt)
         rows = self.dampers(q, t)
-        qdot = qpsolvers.solve_qp(P, c, rows.G, rows.h, lb=lower, ub=upper, solver=SOLVER)
         slack = 0.0
-        if qdot is None:
-            qdot, slack = self._soft(P, c, rows, lower, upper)
-        qdot = np.clip(qdot, lower, upper)  # the solver meets the box to ~1e-15; make it exact
+        if (reference >= lower).all() and (reference <= upper).all() and (rows.G @ reference <= rows.h).all():
+            qdot = reference.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution
+        else:
+            J = state.kin.J_task[0]
+            P = self.params.task_weight * (J.T @ J) + self._identity
+            c = -P @ reference
+            solved = qpsolvers.solve_qp(P, c, rows.G, rows.h, lb=lower, ub=upper, solver=SOLVER)
+            if solved is None:
+                solved, slack = self._soft(P, c, rows, lower, upper)
+            qdot = np.clip(solved, lower, upper)  # the solver meets the box to ~1e-15; make it exact
         active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL))
         clamped = bool(np.any((qdot >= upper - _ACTIVE_TOL) | (qdot <= lower + _ACTIVE_TOL)))
         report = replace(info, qdot_requested=reference, scale=1.0, clamped=clamped, null_scale=1.0,
