@@ -8,6 +8,8 @@ the segment's length. Before ``start_time`` the hand waits at the first waypoint
 
 from __future__ import annotations
 
+import bisect
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +56,7 @@ class HandPath:
     orientation: NDArray[np.float64] | None = None
     _times: NDArray[np.float64] = field(init=False, repr=False)
     _directions: NDArray[np.float64] = field(init=False, repr=False)
+    _time_list: list[float] = field(init=False, repr=False)
     _length: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -111,6 +114,7 @@ class HandPath:
         object.__setattr__(self, "start_time", start)
         object.__setattr__(self, "orientation", orientation)
         object.__setattr__(self, "_times", times)
+        object.__setattr__(self, "_time_list", times.tolist())  # for bisect on one time
         object.__setattr__(self, "_directions", directions)
         object.__setattr__(self, "_length", length)
 
@@ -155,6 +159,12 @@ class HandPath:
         Raises:
             TrajectoryError: If ``t`` is not finite or has more than one dimension.
         """
+        if isinstance(t, float) and math.isfinite(t):  # one time: the same arithmetic without array overhead
+            if t >= self.end_time:
+                return self.waypoints[-1].copy()
+            held = max(t, self.start_time)
+            k = self._segment(held)
+            return self.waypoints[k] + self._directions[k] * (self.speed * (held - self._time_list[k]))
         times, scalar = self._times_arg(t)
         # Clipping holds the first waypoint before start_time (segment 0, offset 0) and keeps
         # offsets bounded far after end_time. Exactly at a waypoint time the offset is 0.
@@ -178,6 +188,10 @@ class HandPath:
         Raises:
             TrajectoryError: If ``t`` is not finite or has more than one dimension.
         """
+        if isinstance(t, float) and math.isfinite(t):  # one time: the same arithmetic without array overhead
+            if not self.start_time <= t < self.end_time:
+                return np.zeros(self.dim)
+            return self._directions[self._segment(t)] * self.speed
         times, scalar = self._times_arg(t)
         segment, inside = self._locate(times)
         out = self._directions[segment] * self.speed
@@ -192,6 +206,10 @@ class HandPath:
         _check_finite(times, "t")
         scalar = times.ndim == 0
         return (times.reshape(1) if scalar else times), scalar
+
+    def _segment(self, t: float) -> int:
+        """:meth:`_locate`'s segment index for one time ``t`` [s]."""
+        return min(max(bisect.bisect_right(self._time_list, t) - 1, 0), len(self._time_list) - 2)
 
     def _locate(self, times: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
         """Segment index for each time (right-continuous) and whether it is on the path.

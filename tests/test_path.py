@@ -176,6 +176,17 @@ def test_vectorised_equals_scalar_calls(times: NDArray[np.float64]) -> None:
         np.testing.assert_array_equal(velocities[i], path.velocity(float(time)))
 
 
+def test_one_time_equals_the_array_path_at_waypoints_ends_and_one_ulp_around() -> None:
+    """A single float takes a scalar shortcut (bisect, no arrays): bit-identical to the array path where
+    segments meet, at the ends, and on a zero-length segment."""
+    path = HandPath(np.vstack([SPATIAL, SPATIAL[-1:]]), duration=2.0, start_time=0.5)
+    knots = path.waypoint_times()
+    times = np.concatenate([knots, np.nextafter(knots, -np.inf), np.nextafter(knots, np.inf), [-1.0, 9.0]])
+    for time in times:
+        np.testing.assert_array_equal(path.position(np.array([time]))[0], path.position(float(time)))
+        np.testing.assert_array_equal(path.velocity(np.array([time]))[0], path.velocity(float(time)))
+
+
 @settings(max_examples=50, deadline=None)
 @given(
     points=arrays(np.float64, (4, 3), elements=st.floats(-2.0, 2.0, allow_nan=False)),

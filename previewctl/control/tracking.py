@@ -194,7 +194,7 @@ def step_correction(
 
     Holding eq. 19's command over a period misses the path by the hand's second-order motion (the null-space
     motion is null for ``J`` at ``q`` only) and by the path's own turns within the period; both are removed to
-    first order, at the cost of one forward kinematics.
+    first order, at the cost of one forward kinematics per call.
     """
     dt = state.dt
     data = state.data if state.data is not None else robot.model.createData()
