@@ -266,7 +266,7 @@ def test_controller_params_reject_bad_values(kwargs: dict[str, Any], message: st
 
 
 def test_controller_names_come_from_one_list() -> None:
-    names = ("none", "qp", "gradient", "single", "multi", "reach", "oracle")
+    names = ("none", "qp", "gradient", "single", "multi", "reach", "horizon", "oracle")
     assert get_args(ControllerName) == CONTROLLER_NAMES == names
     assert PREVIEW_MODES == ("single", "multi", "reach")
     with pytest.raises(ParameterError, match=r"controller = 'fancy' is not valid; valid: none, qp, gradient, single"):

@@ -27,8 +27,8 @@ from previewctl.viz.replay import REPLAY_NAME
 
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
-REFERENCE_ONLY = {"oracle": "planar4"}
-"""Controllers run only on some robots: the non-causal ``oracle`` needs the planar reachability DP."""
+REFERENCE_ONLY = {"oracle": "planar4", "horizon": "planar4"}
+"""Controllers run only on some robots: ``oracle`` and ``horizon`` need the planar reachability DP."""
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class Sweep:
         robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
-            ``oracle`` only on planar4).
+            ``oracle`` and ``horizon`` only on planar4).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
         seeds: controller seeds ``0 .. seeds - 1``.
         scene_seed: the seed the scenes are drawn with.

@@ -27,7 +27,7 @@ def add_parser(commands: Commands) -> None:
         description="Generate seeded scenes per robot (a hand path in reach, an obstacle crossing the intermediate "
         "links mid-run, sometimes a second; each draw must pass a solvability witness: the reachability DP on "
         "planar4, a collision-free hand-on-path configuration every 0.25 s on spatial arms), run every controller "
-        "(the non-causal oracle only on planar4) with every execution mode and controller seed, and write "
+        "(horizon and the non-causal oracle only on planar4) with every execution mode and controller seed, and write "
         "OUT/results.jsonl (one line per run, appended as runs finish), OUT/scenes.jsonl, OUT/report.md and "
         "OUT/success.png, and keep the failures (and one success per controller) with their figures and 3-D replays "
         "in OUT/runs/. A rerun does only the runs missing from OUT/results.jsonl. Runs on a local Dask cluster "

@@ -28,8 +28,9 @@ def add_parser(commands: Commands) -> None:
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
-                     help="override the scenario's controller ('oracle': non-causal, follows the reachability "
-                     "DP's best motion, see reach-map)")
+                     help="override the scenario's controller ('horizon': the reachability DP over the preview "
+                     "window, replanned; 'oracle': non-causal, follows the DP's best motion over the whole run, see "
+                     "reach-map; both planar only)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     run.add_argument("--tolerance", type=float,

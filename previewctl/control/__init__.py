@@ -13,6 +13,9 @@ and differs only in the null-space input ``v``:
 * ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
 * ``reach`` (Fig. 3): a route of peaks, one per future time, that the arm can move through
   with the best total S (:mod:`previewctl.control.reach`);
+* ``horizon`` (planar arms): the same DP over the preview window ``[t, t + p t̃]`` only, replanned every
+  ``replan_period``: future reachability evaluated on the redundancy grid instead of by imaginary arms
+  (:mod:`previewctl.control.oracle`);
 * ``oracle`` (non-causal, a reference, planar arms): ``v`` pulls toward the best motion of the
   reachability DP over the whole future (:mod:`previewctl.control.oracle`,
   :mod:`previewctl.search.reachability`).

@@ -1,7 +1,8 @@
 """Building a controller: :func:`make_controller` (from a scenario or from parts) and :func:`build_law`.
 
-The names: ``none``, ``qp``, ``gradient``, ``single``, ``multi``, ``reach`` and ``oracle`` (non-causal: it
-follows the reachability DP's best motion over the whole future, a reference for the others). Every one is
+The names: ``none``, ``qp``, ``gradient``, ``single``, ``multi``, ``reach``, ``horizon`` (the reachability DP
+over the preview window, replanned) and ``oracle`` (non-causal: it follows the reachability DP's best motion
+over the whole future, a reference for the others). Every one is
 executed through the constrained QP unless ``params.execution = "pseudoinverse"``; ``qp`` always is.
 
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a
@@ -220,6 +221,10 @@ def build_law(
         return GradientController(robot, evaluator, params)
     if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command
         return OracleController(robot, params, evaluator)
+    if spec.name == "horizon":  # causal: replans over the preview window [t, t + p t̃]
+        window = params.preview_time * len(params.weights)
+        replan = params.replan_period if params.replan_period is not None else params.preview_time / 2
+        return OracleController(robot, params, evaluator, window=window, replan_period=replan)
     mode = "multi" if spec.name == "reach" else spec.name
     count = len(params.preview_weights(mode))
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)

@@ -22,11 +22,20 @@ The plan is made at the first call of :meth:`OracleController.command` from the 
 scene, the evaluator's index and potential and the configuration at that time, over the rest of
 the path (``path.end_time − t``); that first cycle therefore takes seconds. Pass ``plan=`` to reuse
 a plan made before. Planar arms of 2-4 joints only (the DP's grid).
+
+``horizon`` is the same machinery made causal: the paper's "future reachability evaluation" done by
+the DP instead of by imaginary arms. It reads the future only as far as the preview controllers do,
+up to the last preview time ``t + p t̃`` (3 s with three previews 1 s apart, as on the bench scenes):
+every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration over
+``[t, t + p t̃]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at most
+24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
+the window and knows nothing beyond it.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -41,10 +50,18 @@ from previewctl.types import Array
 
 ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
 """The DP the oracle plans with by default: 2° grid, 50 steps over the rest of the path, no figure maps."""
+HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, map_times=0)
+"""The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
+:data:`HORIZON_STEP` of the window)."""
+HORIZON_STEP = 0.16
+"""[s] the DP's time step in ``horizon``'s plans (the oracle's 8 s / 50 steps on the bench scenes) ..."""
+HORIZON_MAX_STEPS = 24
+"""... up to this many steps per plan (a longer window gets longer steps: the paper's 15 s, 0.63 s each)."""
 
 
 class OracleController:
-    """``oracle`` (non-causal): tracks the reachability DP's best motion (see the module docstring).
+    """``oracle`` (non-causal): tracks the reachability DP's best motion; with ``window``, the causal ``horizon``
+    that replans over the preview window (see the module docstring).
 
     Args:
         robot: a planar arm of 2 to 4 joints.
@@ -56,13 +73,13 @@ class OracleController:
             steps is lowered when the path left is too short for it (a step must let a gene move by at
             least one grid cell).
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
+        window: ``horizon`` mode: how far ahead [s] each plan looks (``None``: the oracle, the whole rest).
+        replan_period: ``horizon`` mode: time between plans [s].
 
     Raises:
         PlanarOnlyError: a spatial arm.
-        ConfigurationError: a negative or non-finite lookahead.
+        ConfigurationError: a negative or non-finite lookahead, window or replan period.
     """
-
-    name = "oracle"
 
     def __init__(
         self,
@@ -73,34 +90,49 @@ class OracleController:
         plan: ReachResult | ReachMotion | None = None,
         options: ReachOptions | None = None,
         lookahead: float = 0.1,
+        window: float | None = None,
+        replan_period: float = 0.5,
     ) -> None:
+        self.name = "oracle" if window is None else "horizon"
         if robot.planar is None:
-            raise PlanarOnlyError(f"oracle: planar arms only (robot {robot.name!r} is spatial); the reachability "
+            raise PlanarOnlyError(f"{self.name}: planar arms only (robot {robot.name!r} is spatial); the reachability "
                                   f"DP it follows needs the planar redundancy grid")
-        if not (isinstance(lookahead, (int, float)) and math.isfinite(lookahead) and lookahead >= 0):
-            raise ConfigurationError(f"oracle lookahead must be a finite number >= 0 [s], got {lookahead!r}")
+        times = {"lookahead": (lookahead, True), "replan period": (replan_period, False)}
+        if window is not None:
+            times["window"] = (window, False)
+        for label, (value, zero_ok) in times.items():
+            finite = isinstance(value, (int, float)) and math.isfinite(value)
+            if not finite or value < 0 or (value == 0 and not zero_ok):
+                bound = ">= 0" if zero_ok else "> 0"
+                raise ConfigurationError(f"{self.name} {label} must be a finite number {bound} [s], got {value!r}")
         self.robot, self.params, self.evaluator = robot, params, evaluator
-        self.options = options or ORACLE_OPTIONS
+        self.options = options or (ORACLE_OPTIONS if window is None else HORIZON_OPTIONS)
         self.lookahead = float(lookahead)
+        self.window = None if window is None else float(window)
+        self.replan_period = float(replan_period)
+        self._next_plan = -math.inf
         self.result: ReachResult | None = plan if isinstance(plan, ReachResult) else None
         self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
         self._gain = gain_vector(params.gain, robot.nv, "gain")
 
     def plan(self, t: float, q: Array, state: ControlState) -> ReachMotion:
-        """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path``."""
+        """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path`` (the oracle), or
+        over the window ``[t, t + window]`` cut at the path's end (``horizon``)."""
         horizon = state.path.end_time - t
+        if self.window is not None:
+            horizon = min(horizon, self.window)
         if horizon <= 0:  # nothing left to track: hold q
             self.motion = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
                                       branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
                                       min_S=float("nan"), total_S=0.0)
             return self.motion
         options = self.options
+        if self.window is not None:
+            options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
         slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
         if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
             if fit < options.steps:
-                from dataclasses import replace
-
                 options = replace(options, steps=max(1, fit))
         self.result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t)
         self.motion = self.result.motion
@@ -108,7 +140,10 @@ class OracleController:
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]: eq. 19 pulled toward the plan at ``t + lookahead``."""
-        motion = self.motion if self.motion is not None else self.plan(t, q, state)
+        motion = self.motion
+        if motion is None or (self.window is not None and t >= self._next_plan):
+            motion = self.plan(t, q, state)
+            self._next_plan = t + self.replan_period
         t_ref = t + self.lookahead
         q_ref = motion.at(t_ref)
         v = motion.velocity(t_ref) + self._gain * (q_ref - np.asarray(q, dtype=float))

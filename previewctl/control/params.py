@@ -32,10 +32,11 @@ from previewctl.validation import (
 
 PreviewMode = Literal["single", "multi", "reach"]
 """The controllers that steer the arm towards imaginary arms at future times."""
-ControllerName = Literal["none", "qp", "gradient", PreviewMode, "oracle"]
+ControllerName = Literal["none", "qp", "gradient", PreviewMode, "horizon", "oracle"]
 """Every controller: ``none`` (eq. 19 alone), ``qp`` (eq. 19 with no null-space motion, always executed by the
 constrained QP: the velocity-damper method of NEO, the peer baseline), ``gradient``, the preview modes, and
-``oracle``, which is non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
+``horizon`` (the reachability DP over the preview window, replanned: planar arms) and ``oracle``, which is
+non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
 ExecutionMode = Literal["qp", "pseudoinverse"]
 """How a controller's eq. 19 command is executed: ``qp`` (a constrained QP with joint limits and collision velocity
 dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""
@@ -107,6 +108,8 @@ class ControllerParams(Checked):
         hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
+        replan_period: ``horizon``: time between two plans [s] (each looks ``previews · preview_time`` ahead);
+            ``None`` (the default): half the preview time.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
@@ -139,6 +142,7 @@ class ControllerParams(Checked):
     hysteresis: NonNegative = 0.2
     settle_frames: Count = 15
     track_radius: Positive = 0.5
+    replan_period: Positive | None = None
     execution: ExecutionMode = "qp"
     task_weight: Positive = 1e4
     slack_weight: Positive = 1e6

@@ -15,6 +15,7 @@ Controllers and their parameters (the paper's where it gives them):
 * ``single``: eq. 20, one imaginary arm at ``t + 10 s`` (section 7.1);
 * ``multi``: eq. 21, three imaginary arms at ``t + 5, 10, 15 s``, ``k = (0.3, 0.65, 0.05)`` (section 7.2);
 * ``reach``: the reachability sequence of Fig. 3 over the same three preview times and weights;
+* ``horizon``: the reachability DP over the preview window ``[t, t + 15 s]``, replanned every 2.5 s;
 * ``oracle``: the reachability DP's best motion (non-causal: a reference).
 
 Each controller runs under both executions (:data:`~previewctl.control.params.EXECUTION_MODES`): the QP
