@@ -185,3 +185,18 @@ def test_bounds_brake_linearly_within_the_margin_and_leave_continuous_joints_the
     assert continuous.any() and np.isfinite(upper).all()
     np.testing.assert_allclose(upper[continuous], kinova.joints.velocity[continuous])
     np.testing.assert_allclose(lower[continuous], -kinova.joints.velocity[continuous])
+
+
+def test_a_step_the_qp_limits_still_leaves_the_error_of_the_continuous_law(panda: Robot) -> None:
+    """The law corrects eq. 19's step for the command it asks for; when the speed limits bind, the QP runs another
+    one and corrects the step again for it: held for dt, the executed q̇ leaves e(t + dt) = exp(−K_p dt) e(t)."""
+    q, dt = np.array([0.3, -0.4, 0.2, -1.8, 0.1, 1.6, 0.5]), 0.01
+    path = _hand_path(panda, q, np.array([0.05, 0.02, 0.0]))
+    params = ControllerParams(velocity_scale=0.5)
+    state = _state(panda, q, path, dt)
+    _, info = track(panda, 0.3, q, state, np.array([3.0, -2.4, 3.0, 1.8, -3.0, 2.4, 3.0]), params)
+    qdot, report = QPExecution(panda, pc.Scene(), params)(0.3, q, state, info)
+    assert report.clamped  # the null-space motion is cut by the speed limits
+    after = kinematics(panda, pc.integrate(panda, q, qdot, dt)[None, :]).tip_position[0]
+    miss = np.linalg.norm(path.position(0.3 + dt) - after - np.exp(-params.feedback_gain * dt) * info.task_error)
+    assert miss < 1e-7

@@ -26,6 +26,10 @@ preview pull, a gradient or zero), the QP is
   brakes in time), and never exceeds ``(limit − q)/dt``. A joint held at a limit is *saturated*: the QP
   re-solves the hand task with the other joints, which is saturation in the null space (Flacco et al. 2012)
   done by the solver.
+* Step correction: ``q̇_ref`` already carries eq. 19's correction for the period it is held over
+  (:func:`~previewctl.control.tracking.step_correction`), computed for the law's own command. When a
+  constraint binds, the QP executes another ``q̇``, so the hand term's target is corrected again for the
+  QP's solution (the same two Gauss-Newton corrections, each a re-solve).
 * Infeasible constraints (e.g. an obstacle faster than the arm): the QP is solved again with one slack
   ``s_k ≥ 0`` per damper row, penalised by ``slack_weight · s_k²``; the largest slack [m/s] is reported.
 
@@ -43,7 +47,7 @@ import qpsolvers
 
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.params import ControllerParams
-from previewctl.control.tracking import effective_velocity_limits
+from previewctl.control.tracking import STEP_ITERATIONS, effective_velocity_limits, step_correction
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
 from previewctl.scene.motion import Static
@@ -160,18 +164,27 @@ class QPExecution:
         if (reference >= lower).all() and (reference <= upper).all() and (rows.G @ reference <= rows.h).all():
             qdot = reference.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution
         else:
-            J = state.kin.J_task[0]
-            P = self.params.task_weight * (J.T @ J) + self._identity
+            J, W = state.kin.J_task[0], self.params.task_weight
+            P = W * (J.T @ J) + self._identity
             c = -P @ reference
-            solved = qpsolvers.solve_qp(P, c, rows.G, rows.h, lb=lower, ub=upper, solver=SOLVER)
-            if solved is None:
-                solved, slack = self._soft(P, c, rows, lower, upper)
-            qdot = np.clip(solved, lower, upper)  # the solver meets the box to ~1e-15; make it exact
+            qdot, slack = self._solve(P, c, rows, lower, upper)
+            # the law corrected eq. 19's step for the q̇ it asked for; the QP runs another: correct for that one
+            for _ in range(STEP_ITERATIONS if self.params.step_correction else 0):
+                c = c - W * (J.T @ step_correction(self.robot, t, q, state, qdot, info.task_error, self.params))
+                qdot, slack = self._solve(P, c, rows, lower, upper)
         active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL))
         clamped = bool(np.any((qdot >= upper - _ACTIVE_TOL) | (qdot <= lower + _ACTIVE_TOL)))
         report = replace(info, qdot_requested=reference, scale=1.0, clamped=clamped, null_scale=1.0,
                          execution="qp", dampers=int(rows.h.size), active_dampers=active, slack=slack)
         return qdot, report
+
+    def _solve(self, P: Array, c: Array, rows: Dampers, lower: Array, upper: Array) -> tuple[Array, float]:
+        """The QP ``min ½ q̇ᵀPq̇ + cᵀq̇`` under the bounds and the dampers, softened if infeasible: ``(q̇, max slack)``."""
+        solved = qpsolvers.solve_qp(P, c, rows.G, rows.h, lb=lower, ub=upper, solver=SOLVER)
+        slack = 0.0
+        if solved is None:
+            solved, slack = self._soft(P, c, rows, lower, upper)
+        return np.clip(solved, lower, upper), slack  # the solver meets the box to ~1e-15; make it exact
 
     def _soft(self, P: Array, c: Array, rows: Dampers, lower: Array, upper: Array) -> tuple[Array, float]:
         """The QP with one slack per damper row (``s ≥ 0``, cost ``slack_weight · s²``): ``(q̇, max s)``."""
