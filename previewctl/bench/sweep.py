@@ -27,8 +27,8 @@ from previewctl.viz.replay import REPLAY_NAME
 
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
-REFERENCE_ONLY = {"oracle": "planar4", "horizon": "planar4"}
-"""Controllers run only on some robots: ``oracle`` and ``horizon`` need the planar reachability DP."""
+ONLY_ON = {"oracle": "planar4", "horizon": "planar4"}
+"""Controllers run on one robot only: ``oracle`` and ``horizon`` need the planar reachability DP."""
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class Sweep:
             for scene in range(self.scenes):
                 for seed in range(self.seeds):
                     for name in controllers:
-                        if REFERENCE_ONLY.get(name, robot) != robot:
+                        if ONLY_ON.get(name, robot) != robot:
                             continue
                         specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
                                   for execution in executions]

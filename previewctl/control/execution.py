@@ -12,9 +12,9 @@ preview pull, a gradient or zero), the QP is
 * Weights: the hand term has weight ``W = task_weight`` (10⁴ by default) and the joint term weight 1.
   Both terms vanish at ``q̇ = q̇_ref``, so when ``q̇_ref`` meets every constraint it is the QP's solution:
   it is returned as it is, without calling the solver (most cycles), and the paper's controller is the
-  unconstrained case exactly. When a
-  constraint binds, the joints give way first: a hand deviation costs ``W`` times more than the same
-  joint-space deviation, so the hand keeps its priority while the null-space motion yields.
+  unconstrained case exactly. When a constraint binds, the joints give way first: a hand deviation costs
+  ``W`` times more than the same joint-space deviation, so the hand keeps its priority while the
+  null-space motion yields.
 * Dampers: ``d_k`` [m] is the Coal distance of pair ``k`` (guarded geometry, obstacle), ``n_k`` the unit
   normal from the robot's nearest point ``p_k`` towards the obstacle's, ``J_k`` the Jacobian of ``p_k``
   (a point fixed on its link) and ``v_obs,k`` the obstacle's velocity [m/s] from its known motion (the
