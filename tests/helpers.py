@@ -42,6 +42,13 @@ def rot_z(angle: float) -> Array:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def tiny_planar_toml(name: str, sections: str) -> str:
+    """A planar4 scenario file's text named ``name``: the hand from :data:`PLANAR_START` 0.1 m along −x in 1 s,
+    no obstacle, followed by ``sections`` (more TOML: ``[timing]``, ``[output]``, ``[[obstacles]]`` ...)."""
+    return (f'name = "{name}"\n[robot]\nsource = "planar4"\nq0 = {PLANAR_Q0}\n'
+            f"[path]\nwaypoints = [{PLANAR_START}, [1.8069, 1.0417]]\nduration = 1.0\n{sections}")
+
+
 def planar_doc(**sections: Any) -> dict[str, Any]:
     """A planar4 scenario document: the hand along a 0.5 m line in 5 s, no obstacle, controller ``none``.
 

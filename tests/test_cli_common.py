@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
+from helpers import tiny_planar_toml
 
 from previewctl.cli.common import ProgressBar
 from previewctl.cli.main import main
@@ -58,11 +59,10 @@ def test_run_command_writes_one_progress_line_when_stderr_is_not_a_terminal(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     scenario = tmp_path / "tiny.toml"
-    scenario.write_text(
-        'name = "tiny"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
-        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
-        '[timing]\nduration = 0.2\n[output]\nfigures = ["S"]\ngif = false\n'
-    )
+    scenario.write_text(tiny_planar_toml(
+        "tiny",
+        '[timing]\nduration = 0.2\n[output]\nfigures = ["S"]\ngif = false\n',
+    ))
     assert main(["run", str(scenario), "--out", str(tmp_path / "run")]) == 0
     captured = capsys.readouterr()
     (line,) = captured.err.splitlines()

@@ -13,7 +13,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import planar_doc
+from helpers import planar_doc, tiny_planar_toml
 
 from previewctl.cli.main import main
 from previewctl.errors import PreviewctlError
@@ -233,12 +233,11 @@ def test_spatial_strobe(tmp_path: Path) -> None:
 
 def test_cli_run_writes_summary_log_and_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     scenario = tmp_path / "tiny.toml"
-    scenario.write_text(
-        'name = "tiny"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
-        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
+    scenario.write_text(tiny_planar_toml(
+        "tiny",
         '[[obstacles]]\nname = "b"\nshape = "sphere"\nradius = 0.1\nposition = [1.0, 0.2]\n'
-        "[timing]\nduration = 0.3\n"
-    )
+        "[timing]\nduration = 0.3\n",
+    ))
     out = tmp_path / "run"
     assert main(["run", str(scenario), "--out", str(out), "--controller", "gradient", "--no-gif", "--seed", "1"]) == 0
     captured = capsys.readouterr()
@@ -253,11 +252,10 @@ def test_cli_run_writes_summary_log_and_figures(tmp_path: Path, capsys: pytest.C
 
 def test_cli_default_out_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     scenario = tmp_path / "tiny.toml"
-    scenario.write_text(
-        'name = "tiny"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
-        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
-        '[timing]\nduration = 0.05\n[output]\nfigures = ["S"]\ngif = false\n'
-    )
+    scenario.write_text(tiny_planar_toml(
+        "tiny",
+        '[timing]\nduration = 0.05\n[output]\nfigures = ["S"]\ngif = false\n',
+    ))
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(scenario)]) == 0
     assert (tmp_path / "out" / "tiny-none" / NPZ_NAME).is_file()
@@ -305,11 +303,10 @@ def test_scenario_tolerance_is_read_and_checked() -> None:
 
 def test_cli_run_exit_code_says_a_run_failed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     scenario = tmp_path / "crash.toml"
-    scenario.write_text(
-        'name = "crash"\n[robot]\nsource = "planar4"\nq0 = [0.6, 1.0, -1.2, -1.0]\n'
-        "[path]\nwaypoints = [[1.9069, 1.0417], [1.8069, 1.0417]]\nduration = 1.0\n"
-        "[timing]\nduration = 0.2\n[output]\nfigures = []\ngif = false\n"
-    )
+    scenario.write_text(tiny_planar_toml(
+        "crash",
+        "[timing]\nduration = 0.2\n[output]\nfigures = []\ngif = false\n",
+    ))
     assert main(["run", str(scenario), "--out", str(tmp_path / "ok")]) == 0
     assert "success                   yes" in capsys.readouterr().out
     assert main(["run", str(scenario), "--out", str(tmp_path / "tight"), "--tolerance", "1e-12"]) == 3
