@@ -423,6 +423,24 @@ class FakePeaksGA(FakeGA):
         return self._peaks
 
 
+def test_coherent_imaginary_arms_form_a_chain_from_the_arm(planar4: Robot) -> None:
+    """Coherent mode: imaginary arm 2 starts from arm 1's peak, not from the real arm. Arm 2 has a better peak
+    ``N`` next to the arm and a worse one ``M`` next to arm 1's peak ``P1``; it takes ``M``."""
+    path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
+    q = np.array(PLANAR_Q0)
+    P1 = q + np.array([0.45, 0.0, 0.0, 0.0])  # 0.45 rad from the arm: arm 1's peak
+    N = q + np.array([-0.3, 0.0, 0.0, 0.0])  # 0.3 rad from the arm, 0.75 rad from P1
+    M = q + np.array([0.55, 0.0, 0.0, 0.0])  # 0.55 rad from the arm, 0.1 rad from P1
+    first = FakeCandidate(np.zeros(2), 0, P1, 100.0)
+    second = FakeCandidate(np.zeros(2), 0, N, 200.0)
+    searches = [FakePeaksGA(first, [first]), FakePeaksGA(second, [second, FakeCandidate(np.zeros(2), 0, M, 50.0)])]
+    controller = PreviewController(planar4, params, "multi", searches)
+    _, info = controller.command(0.0, q, state_for(planar4, q, path))
+    assert info.targets is not None
+    np.testing.assert_allclose(info.targets, np.array([P1, M]), atol=1e-12)
+
+
 def reach_setup(planar4: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
     """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)

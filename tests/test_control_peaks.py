@@ -31,46 +31,65 @@ def _tracker(**options: float) -> PeakTracker:
 
 
 A, B = [0.5, 1.0, -1.0, 0.5], [2.0, -1.0, 1.0, -0.5]  # two peaks far apart in joint space
+REACH = np.full(4, 1.0)  # [rad] each joint's move in one preview step (planar4: 1 rad/s, t̃ = 1 s)
 
 
 def test_peak_identity_survives_a_small_perturbation_of_the_landscape() -> None:
     tracker = _tracker()
-    first = tracker.update(*_options((A, 100.0), (B, 120.0)), np.array(A) + 0.1)
+    first = tracker.update(*_options((A, 100.0), (B, 120.0)), np.array(A) + 0.1, REACH)
     assert first is not None and np.allclose(first.q, A)  # the arm's own basin, not the best peak
     # the landscape shifts a little and B edges ahead: keep A's identity
     moved = [a + 0.05 for a in A]
-    second = tracker.update(*_options((B, 115.0), (moved, 100.0)), np.array(A))
+    second = tracker.update(*_options((B, 115.0), (moved, 100.0)), np.array(A), REACH)
     assert second is not None and np.allclose(second.q, moved) and not second.switched
 
 
 def test_a_better_peak_in_another_basin_does_not_take_over() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
-    kept = tracker.update(*_options((A, 100.0), (B, 400.0)), np.array(A))
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A), REACH)
+    kept = tracker.update(*_options((A, 100.0), (B, 400.0)), np.array(A), REACH)
     assert kept is not None and np.allclose(kept.q, A) and not kept.switched
 
 
 def test_the_best_individual_near_the_last_target_carries_the_peak() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A))
+    tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(A), REACH)
     climbed = [a + 0.2 for a in A]  # within track_radius, and better: the same peak, moved uphill
-    chosen = tracker.update(*_options((A, 100.0), (climbed, 110.0), (B, 120.0)), np.array(A))
+    chosen = tracker.update(*_options((A, 100.0), (climbed, 110.0), (B, 120.0)), np.array(A), REACH)
     assert chosen is not None and np.allclose(chosen.q, climbed) and not chosen.switched
 
 
-def test_a_lost_peak_is_replaced_by_the_nearest_survivor_not_the_best() -> None:
+def test_a_lost_peak_is_replaced_by_the_best_survivor_within_reach_of_the_arm_before() -> None:
     tracker = _tracker()
-    tracker.update(*_options((A, 100.0)), np.array(A))
-    near = [a + 0.7 for a in A]  # beyond track_radius: A is lost
-    chosen = tracker.update(*_options((B, 500.0), (near, 50.0)), np.array(A))
+    tracker.update(*_options((A, 100.0)), np.array(A), REACH)
+    near = [a + 0.7 for a in A]  # beyond track_radius (|Δ| = 1.4 rad), within reach (0.7 rad per joint)
+    nearer = [a + 0.6 for a in A]  # also within reach, and nearer, but worse
+    chosen = tracker.update(*_options((B, 500.0), (near, 50.0), (nearer, 40.0)), np.array(A), REACH)
     assert chosen is not None and np.allclose(chosen.q, near) and chosen.switched
+    # B is better still, but its joints move by 1.5-2 rad: out of one preview step's reach
+    assert np.abs(np.subtract(B, A)).max() > REACH.max()
+
+
+def test_a_lost_peak_with_no_survivor_within_reach_takes_the_nearest_to_the_arm_before() -> None:
+    tracker = _tracker()
+    tracker.update(*_options((A, 100.0)), np.array(A), REACH)
+    far = [a + 1.2 for a in A]  # out of reach, but nearer to A than B is
+    chosen = tracker.update(*_options((B, 500.0), (far, 50.0)), np.array(A), REACH)
+    assert chosen is not None and np.allclose(chosen.q, far) and chosen.switched
+
+
+def test_each_imaginary_arm_starts_from_the_arm_before_it_in_the_chain() -> None:
+    """At the first frame the reference is ``before`` (for arm i > 1: arm i - 1's target, not the real arm)."""
+    tracker = _tracker()
+    first = tracker.update(*_options((A, 100.0), (B, 90.0)), np.array(B) + 0.1, REACH)
+    assert first is not None and np.allclose(first.q, B) and first.switched
 
 
 def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> None:
     tracker = _tracker(settle_frames=4)
-    ramps = [tracker.update(*_options((A, 100.0)), np.array(A)).ramp for _ in range(6)]  # type: ignore[union-attr]
+    ramps = [tracker.update(*_options((A, 100.0)), np.array(A), REACH).ramp for _ in range(6)]  # type: ignore[union-attr]
     assert ramps == [0.0, 0.25, 0.5, 0.75, 1.0, 1.0]
-    assert tracker.update(*_options((A, -1.0)), np.array(A)) is None
+    assert tracker.update(*_options((A, -1.0)), np.array(A), REACH) is None
 
 
 def test_branch_lock_breeds_every_individual_on_one_branch(planar4: Robot) -> None:

@@ -12,7 +12,7 @@ from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.gradient import GradientController
 from previewctl.control.params import ControllerParams
 from previewctl.control.peaks import PeakTracker
-from previewctl.control.tracking import gain_vector, track
+from previewctl.control.tracking import effective_velocity_limits, gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
@@ -120,6 +120,8 @@ class PreviewController:
             )
             for _ in self.searches
         ]
+        # [rad] how far each joint can move between two preview times: the chain of imaginary arms' reach
+        self._reach = effective_velocity_limits(robot, params.velocity_scale) * params.preview_time
         self._branches = PlanarRedundancy(robot) if params.coherent and robot.planar is not None else None
         # The planar elbow joint is never wrapped: within one branch its plain difference is the way that
         # does not pass through the unreachable folded wrist (q_n = ±π).
@@ -149,14 +151,15 @@ class PreviewController:
         return targets, values
 
     def _track(self, i: int, best: Any, q: Array, targets: Array, values: Array) -> None:
-        """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode)."""
+        """Replace imaginary arm ``i``'s argmax by its tracked peak (coherent mode); arm ``i - 1``'s target (the
+        arm ``q`` for ``i = 0``) must already be in ``targets``: it is the link before ``i`` in the chain."""
         search = self.searches[i]
         if isinstance(search, OneStepGA):
             Q, S = search.population_q, search.population_S
         else:  # a stand-in search: its best and peaks
             options = [best, *search.peaks()]
             Q, S = np.array([np.asarray(c.q, dtype=float) for c in options]), np.array([float(c.S) for c in options])
-        peak = self._trackers[i].update(Q, S, q)
+        peak = self._trackers[i].update(Q, S, q if i == 0 else targets[i - 1], self._reach)
         if peak is not None:
             targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
             search.seed(peak.q)  # keep the tracked peak in the population
