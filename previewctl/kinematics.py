@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,7 +10,7 @@ import pinocchio as pin
 
 from previewctl.errors import ConfigurationError
 from previewctl.robot.model import Robot
-from previewctl.types import Array
+from previewctl.types import Array, IntArray
 from previewctl.validation import show
 
 
@@ -41,6 +41,17 @@ _SKEW_SOURCES = np.array([2, 1, 2, 0, 1, 0])
 _SKEW_SIGNS = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
 
 
+def support_mask(model: pin.Model, joints: Sequence[int] | IntArray) -> Array:
+    """``(len(joints), nv)``: 1 in the velocity columns that move each joint (its supporting joints), else 0."""
+    mask = np.zeros((len(joints), model.nv))
+    for k, joint_id in enumerate(joints):
+        for j in model.supports[int(joint_id)]:
+            if j > 0:
+                joint = model.joints[j]
+                mask[k, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+    return mask
+
+
 class FrameKinematics:
     """Placements and world-aligned Jacobians of chosen frames, for batches of configurations.
 
@@ -67,12 +78,8 @@ class FrameKinematics:
         offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
         self._moved = np.array([k for k, h in enumerate(offsets) if not np.allclose(h, np.eye(4))], dtype=int)
         self._offset = np.array(offsets).reshape(-1, 4, 4)[self._moved]
-        self._support = np.zeros((len(frame_ids), 6, model.nv))  # full shape: a fast broadcast
-        for k, parent in enumerate(parents):
-            for j in model.supports[parent]:
-                joint = model.joints[j]
-                if j > 0:
-                    self._support[k, :, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        support = support_mask(model, parents)
+        self._support = np.repeat(support[:, None, :], 6, axis=1)  # full shape (K, 6, nv): a fast broadcast
         self._regroup = not np.array_equal(self._slot, np.arange(len(parents)))  # shared or reordered parents
         self._partial_support = not self._support.all()  # some joint columns do not move some frame
         self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians

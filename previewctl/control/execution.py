@@ -48,6 +48,7 @@ import qpsolvers
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.params import ControllerParams
 from previewctl.control.tracking import STEP_ITERATIONS, effective_velocity_limits, step_correction
+from previewctl.kinematics import support_mask
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
 from previewctl.scene.motion import Static
@@ -107,13 +108,7 @@ class QPExecution:
         self._brake_rate = np.where(braking, self._speed / np.where(braking, margin, 1.0), np.inf)  # [1/s]
         self._identity = np.eye(robot.nv)
         self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
-        support = np.zeros((robot.model.njoints, robot.nv))  # the velocity columns that move each joint
-        for j in range(1, robot.model.njoints):
-            for s in robot.model.supports[j]:
-                if s > 0:
-                    joint = robot.model.joints[s]
-                    support[j, joint.idx_v : joint.idx_v + joint.nv] = 1.0
-        self._pair_support = support[self.clearance.pair_joints]
+        self._pair_support = support_mask(robot.model, self.clearance.pair_joints)  # the columns that move each pair
         self._velocities = np.zeros((len(scene.obstacles), 3))
         self._velocity_time = np.nan
 
