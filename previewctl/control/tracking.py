@@ -234,7 +234,7 @@ def track(
     r_d, rdot_d = task_target(robot, state.path, t)
     tip = kin.tip_position[0]
     error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
-    feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[: J.shape[0]]
+    feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
     xdot = feedforward + params.feedback_gain * error
     J_sharp, lam = damped_pseudo_inverse(J, params.damping, params.singular_threshold)
     v_total = np.asarray(v, dtype=float) + limit_avoidance(robot, q, params)
