@@ -29,6 +29,7 @@ from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import integrate, kinematics
 from previewctl.path import HandPath
+from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
@@ -441,10 +442,15 @@ def test_coherent_imaginary_arms_form_a_chain_from_the_arm(planar4: Robot) -> No
     np.testing.assert_allclose(info.targets, np.array([P1, M]), atol=1e-12)
 
 
-def reach_setup(planar4: Robot, near_S: tuple[float, float]) -> tuple[ReachController, Array, HandPath, list[Array]]:
-    """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one."""
+def reach_setup(planar4: Robot, near_S: tuple[float, float], *,
+                coherent: bool = False) -> tuple[ReachController, Array, HandPath, list[Array]]:
+    """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one.
+
+    ``coherent=False``: the routes of straight sweeps (the paper-literal ``reach``, and ``reach`` on spatial
+    arms); ``True``: the moves planned by the reachability DP (coherent ``reach`` on planar arms)."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1,
+                              coherent=coherent)
     q = np.array(PLANAR_Q0)
     searches, nears = [], []
     for i, S_near in enumerate(near_S, start=1):
@@ -482,6 +488,32 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
     route = controller.route
     assert route is not None and not route.complete  # level 2 has no reachable positive node
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
+
+
+@pytest.mark.parametrize("near_S", [(100.0, 100.0), (100.0, -1.0)])
+def test_coherent_reach_on_a_planar_arm_follows_the_dp_to_the_latest_reachable_peak(
+        planar4: Robot, near_S: tuple[float, float]) -> None:
+    """The better 'far' peaks lie beyond the joint speed limits, so the DP reaches only the 'near' ones; the goal is
+    the near peak of the latest level that has a positive one, and the arm follows the DP's move toward it."""
+    controller, q, path, nears = reach_setup(planar4, near_S, coherent=True)
+    state = state_for(planar4, q, path)
+    v, info = controller.command(0.0, q, state)
+    goal = controller.goal
+    level = 1 if near_S[1] > 0 else 0
+    assert goal is not None and goal[0] == level
+    np.testing.assert_allclose(goal[1], nears[level], atol=1e-12)
+    assert controller.route is None  # no straight-sweep route: the DP plans the move
+    assert info.targets is not None
+    np.testing.assert_allclose(info.targets[level], nears[level], atol=1e-12)
+    planner = controller.planner
+    assert planner is not None and planner.motion is not None and planner.result is not None
+    motion = planner.motion
+    assert motion.times[-1] == pytest.approx(0.5 * (level + 1), abs=0.5 * planner.result.dt)  # ends at the goal's time
+    genes, branch = PlanarRedundancy(planar4).genes_of(np.vstack([motion.q[-1], nears[level]]))
+    assert branch[0] == branch[1]
+    assert np.all(np.abs(genes[0] - genes[1]) <= np.radians(planner.options.resolution_deg) + 1e-9)
+    expected, _ = planner.follow(0.0, q, state)  # the command is the planner's: eq. 19 toward its motion
+    np.testing.assert_allclose(v, expected, atol=1e-12)
 
 
 def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:

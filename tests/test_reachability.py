@@ -27,6 +27,7 @@ from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability.goals import Goals
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -300,6 +301,53 @@ def test_planar3_matches_brute_force(planar3: Robot) -> None:
     result = check_against_brute(planar3, scene, path, q0, 5.5, opts)
     assert result.exists
     assert list(result.gene_cells) == [2]  # floor(1.1 rad / 30 deg)
+
+
+def test_motion_to_a_goal_matches_brute_force(planar3: Robot) -> None:
+    """Goals (imaginary arms' peaks): the motion ends at the latest level with a reached goal, in the reached state
+    within one grid step of it with the best bottleneck, and it is a brute-force path there with the best
+    bottleneck, then the best total S; a better goal that no motion reaches is passed over."""
+    path = HandPath(np.array([[1.2, 0.6], [0.9, 1.0]]), 5.5)
+    scene = Scene((Obstacle("disc", Sphere(0.25), Static(np.array([0.2, 1.1, 0.0]))),))
+    q0 = start_on_path(planar3, path, (0.3,), 0)
+    opts = ReachOptions(resolution_deg=30.0, steps=5, max_step_cells=3)
+    evaluator = Evaluator(planar3, scene)
+    brute = Brute(planar3, evaluator, path, q0, 5.5, opts)
+    assert brute.last_layer() == 5
+    h, k = np.radians(opts.resolution_deg), 3
+
+    def matched(layer: int, q: Array) -> set[int]:
+        """Brute states of ``layer`` that a motion reaches, within one step of ``q``'s gene, on its branch."""
+        states = brute.layers[layer]
+        reached = set(brute.prefixes[layer][:, -1].tolist())
+        branch = int(wrap_angle(q[-1]) < 0)
+        return {s for s in reached if states["branch"][s] == branch
+                and abs(wrap_angle(states["genes"][s, 0] - q[0])) <= h + 1e-9}
+
+    mins, sums = brute.scores(k)
+    ends = brute.prefixes[k][:, -1]
+    goal_state = int(ends[np.argmin(mins)])  # the reached state with the worst bottleneck
+    goal = brute.q(k, goal_state)
+    # at the last layer: a configuration of the other branch whose gene no motion comes near, scored higher
+    unreached = [brute.q(5, s) for s in range(len(brute.layers[5]["S"])) if not matched(5, brute.q(5, s))]
+    assert unreached
+    goals = [Goals(float(brute.times[k]), goal[None, :], np.array([1.0])),
+             Goals(float(brute.times[5]), unreached[0][None, :], np.array([10.0]))]
+    result = reach_over_time(planar3, evaluator, path, q0, 5.5, opts, goals=goals)
+    assert result.goal == (0, 0)
+    near = matched(k, goal)
+    at_near = np.isin(ends, list(near))
+    s_goal = mins[at_near].max()
+    total = sums[at_near & (mins >= s_goal)].max()
+    motion = result.motion
+    assert motion.q.shape[0] == k + 1 and motion.min_S == pytest.approx(s_goal, rel=1e-12)
+    assert motion.total_S == pytest.approx(total, rel=1e-9)
+    best = brute.prefixes[k][at_near & (mins >= s_goal) & (sums >= total - 1e-9 * abs(total))]
+    assert any(np.allclose(motion.q[1:], [brute.q(i + 1, s) for i, s in enumerate(p)], atol=1e-9) for p in best)
+    # without a reached goal the motion is the best one overall
+    alone = reach_over_time(planar3, evaluator, path, q0, 5.5, opts, goals=goals[1:])
+    assert alone.goal is None and alone.motion.min_S == pytest.approx(result.best_min_S, rel=1e-12)
+    assert alone.motion.q.shape[0] == 6
 
 
 def test_planar3_narrow_joint_limits(tmp_path: Path) -> None:

@@ -35,6 +35,7 @@ the window and knows nothing beyond it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -46,6 +47,7 @@ from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
 from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability.goals import Goals
 from previewctl.types import Array
 
 ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
@@ -115,9 +117,11 @@ class OracleController:
         self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
         self._gain = gain_vector(params.gain, robot.nv, "gain")
 
-    def plan(self, t: float, q: Array, state: ControlState) -> ReachMotion:
+    def plan(self, t: float, q: Array, state: ControlState, goals: Sequence[Goals] = ()) -> ReachMotion:
         """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path`` (the oracle), or
-        over the window ``[t, t + window]`` cut at the path's end (``horizon``)."""
+        over the window ``[t, t + window]`` cut at the path's end (``horizon``); toward the best reached of
+        ``goals`` when one is (see :func:`~previewctl.search.reachability.reach_over_time`)."""
+        self._next_plan = t + self.replan_period
         horizon = state.path.end_time - t
         if self.window is not None:
             horizon = min(horizon, self.window)
@@ -134,18 +138,32 @@ class OracleController:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
             if fit < options.steps:
                 options = replace(options, steps=max(1, fit))
-        self.result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t)
+        self.result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t,
+                                      goals=goals)
         self.motion = self.result.motion
         return self.motion
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]: eq. 19 pulled toward the plan at ``t + lookahead``."""
+        if self.motion is None or self.due(t):
+            self.plan(t, q, state)
+        return self.follow(t, q, state)
+
+    def due(self, t: float) -> bool:
+        """Whether a ``horizon`` plan is due at ``t`` [s] (the oracle plans once)."""
+        return self.window is not None and t >= self._next_plan
+
+    def follow(self, t: float, q: Array, state: ControlState, targets: Array | None = None,
+               values: Array | None = None) -> tuple[Array, ControlInfo]:
+        """Eq. 19 pulled toward the current plan at ``t + lookahead``; ``targets``/``values`` (default: that
+        point of the plan and its S) are what the log records as the imaginary arms."""
         motion = self.motion
-        if motion is None or (self.window is not None and t >= self._next_plan):
-            motion = self.plan(t, q, state)
-            self._next_plan = t + self.replan_period
+        if motion is None:
+            raise ConfigurationError(f"{self.name}: follow() before any plan was made")
         t_ref = t + self.lookahead
         q_ref = motion.at(t_ref)
         v = motion.velocity(t_ref) + self._gain * (q_ref - np.asarray(q, dtype=float))
         S_ref = float(np.interp(t_ref, motion.times, motion.S)) if motion.times.size else float("nan")
-        return track(self.robot, t, q, state, v, self.params, q_ref[None, :], np.array([S_ref]))
+        if targets is None or values is None:
+            targets, values = q_ref[None, :], np.array([S_ref])
+        return track(self.robot, t, q, state, v, self.params, targets, values)

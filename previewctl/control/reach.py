@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.oracle import OracleController
 from previewctl.control.params import ControllerParams
 from previewctl.control.preview import SearchLike, step_searches, wrapped_difference
 from previewctl.control.tracking import effective_velocity_limits, gain_vector, track
@@ -18,6 +19,7 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.search.genes import joint_distance
+from previewctl.search.reachability.goals import Goals
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array
 
@@ -69,6 +71,18 @@ class ReachController:
     unreachable peaks) and whose null-space pull toward a configuration on the other elbow branch
     does not lead through the stretched elbow, the arm here follows a move that was checked to be
     on the path, collision-free and within the speed limits.
+
+    **Coherent mode on planar arms of up to 4 joints** (the default there): the moves are planned by the
+    reachability DP over the preview window instead of straight sweeps, so a route may bend around an
+    obstacle or through the stretched wrist. Every ``replan_period`` (default ``t̃ / 2``) the DP of
+    :class:`~previewctl.control.oracle.OracleController` (``horizon``'s grid) runs from ``q`` over
+    ``[t, t + p t̃]`` with the imaginary arms' positive peaks as goals
+    (:mod:`~previewctl.search.reachability.goals`): the goal is the best peak that some collision-free motion
+    reaches at the latest preview time that has one (a peak near the last goal gets the ``hysteresis`` bonus),
+    and the arm follows the DP's best motion to it as ``horizon`` follows its plan. With no peak reached, it
+    follows the DP's best motion over the window (``horizon``'s plan). The GA still runs one generation per
+    camera frame; only the plans are periodic. The straight sweeps remain the routes of the paper-literal mode
+    (``coherent = false``) and of spatial arms.
     """
 
     name = "reach"
@@ -102,11 +116,30 @@ class ReachController:
         # stretched wrist), and a node near the last route's node of its level keeps its identity unless
         # another route beats it by the hysteresis margin
         self._keep = (robot.nv - 1,) if coherent else ()
+        # coherent, planar arms of up to 2 genes: the moves are planned by the reachability DP over the window
+        self._planner = (OracleController(robot, params, evaluator, window=params.preview_time * len(self.weights),
+                                          replan_period=params.replan_period or params.preview_time / 2)
+                         if coherent and robot.nq <= 4 else None)
+        self._levels: list[Goals] = []
+        self._peak_S: list[Array] = []  # the levels' peaks' own S (the goals' scores carry the hysteresis bonus)
+        self._goal: tuple[int, Array, float] | None = None  # (level, configuration, S) of the last planned goal
 
     @property
     def route(self) -> Route | None:
-        """The route chosen at the last frame (``None`` before the first or when none was feasible)."""
+        """The straight-sweep route chosen at the last frame (``None`` before the first, when none was feasible,
+        or when the DP plans the moves)."""
         return self._route
+
+    @property
+    def planner(self) -> OracleController | None:
+        """The reachability DP that plans the moves (coherent mode on planar arms of up to 4 joints), or ``None``."""
+        return self._planner
+
+    @property
+    def goal(self) -> tuple[int, Array, float] | None:
+        """``(level, configuration, S)`` of the peak the DP's last plan heads for (``None``: no plan yet, or no
+        peak reached: the plan is then the DP's best motion over the window)."""
+        return self._goal
 
     def _edges(self, starts: Array, ends: Array, t0: float, path: HandPath) -> tuple[NDArray[np.bool_], Array]:
         """Feasibility ``(len(starts), len(ends))`` of the moves between two levels starting at ``t0`` [s],
@@ -194,8 +227,38 @@ class ReachController:
             peaks = [c for c in search.peaks() if c.S > 0]
             levels.append((np.array([c.q for c in peaks]).reshape(-1, self.robot.nq), np.array([c.S for c in peaks])))
         self._fallback = (best_q, best_S)
-        self._route = self._choose(t, q, levels, path)
+        if self._planner is None:
+            self._route = self._choose(t, q, levels, path)
+        else:
+            self._levels = [Goals(t_i, nodes, values * (1.0 + self.params.hysteresis * self._near_goal(i, nodes)))
+                            for i, (t_i, (nodes, values)) in enumerate(zip(times, levels, strict=True))]
+            self._peak_S = [values for _, values in levels]
         return self._fallback
+
+    def _near_goal(self, level: int, nodes: Array) -> NDArray[np.bool_]:
+        """Which ``nodes`` of ``level`` continue the last planned goal (within ``track_radius`` of it)."""
+        if self._goal is None or self._goal[0] != level or not len(nodes):
+            return np.zeros(len(nodes), dtype=bool)
+        angles = self.robot.angles_of(np.vstack([self._goal[1][None], nodes]))
+        distance = joint_distance(angles[1:], angles[:1], self.robot.joints.full_turn)[:, 0]
+        return np.asarray(distance <= self.params.track_radius)
+
+    def _planned(self, t: float, q: Array, state: ControlState, targets: Array,
+                 values: Array) -> tuple[Array, ControlInfo]:
+        """Follow the DP's move toward the best reached peak (replanned every ``replan_period``)."""
+        planner = self._planner
+        assert planner is not None
+        if planner.motion is None or planner.due(t):
+            planner.plan(t, q, state, goals=self._levels)
+            result = planner.result
+            pick = None if result is None else result.goal
+            self._goal = (None if pick is None
+                          else (pick[0], self._levels[pick[0]].q[pick[1]], float(self._peak_S[pick[0]][pick[1]])))
+        targets, values = targets.copy(), values.copy()
+        if self._goal is not None:
+            level, goal, S = self._goal
+            targets[level], values[level] = goal, S
+        return planner.follow(t, q, state, targets, values)
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]."""
@@ -204,6 +267,8 @@ class ReachController:
             self._frames += 1
         else:
             targets, values = self._fallback
+        if self._planner is not None:
+            return self._planned(t, q, state, targets, values)
         if self._route is not None:
             n = len(self._route.nodes)
             targets, values = targets.copy(), values.copy()

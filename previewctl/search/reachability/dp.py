@@ -67,31 +67,35 @@ def forward(problem: Problem, start: Start, q0_distances: Array) -> Forward:
     return Forward(layers=layers[:K], hops=hops[: max(K - 1, 0)], W=W[: K + 1], start=first)
 
 
-def best_states(fwd: Forward, M: int) -> tuple[float, list[int]]:
+def best_states(fwd: Forward, M: int, end: tuple[int, int] | None = None) -> tuple[float, list[int]]:
     """(c) ``S*`` and the best motion's states (one per layer ``1 .. K``): max min S, then max total S
-    (``nan`` and no state when ``q0`` cannot make a step)."""
+    (``nan`` and no state when ``q0`` cannot make a step). With ``end = (k, state)``: the best motion to
+    that state of layer ``k`` (``S*`` its bottleneck ``W_k``), one state per layer ``1 .. k``."""
     if fwd.K < 1:
         return float("nan"), []
-    s_star = float(np.max(fwd.W[fwd.K]))
-    return s_star, _read_out(fwd, _best_totals(fwd, M, s_star))
+    K, target = (fwd.K, None) if end is None else end
+    s_star = float(np.max(fwd.W[K])) if target is None else float(fwd.W[K][target])
+    return s_star, _read_out(fwd, _best_totals(fwd, M, s_star, K, target), K)
 
 
-def _best_totals(fwd: Forward, M: int, s_star: float) -> list[Array]:
-    """``Z[k]``: the largest ``Σ S`` from each state of layer ``k`` to ``t_K`` through states with
-    ``W >= S*`` (``-inf`` elsewhere); ``Z[0]`` unused."""
-    K, W, layers, hops = fwd.K, fwd.W, fwd.layers, fwd.hops
+def _best_totals(fwd: Forward, M: int, s_star: float, K: int, target: int | None) -> list[Array]:
+    """``Z[k]``: the largest ``Σ S`` from each state of layer ``k`` to ``t_K`` (to its state ``target`` when
+    given) through states with ``W >= S*`` (``-inf`` elsewhere); ``Z[0]`` unused."""
+    W, layers, hops = fwd.W, fwd.layers, fwd.hops
     Z: list[Array] = [np.zeros(0)] * (K + 1)
     Z[K] = np.where(W[K] >= s_star, np.repeat(layers[K - 1].S, M), -np.inf)
+    if target is not None:
+        Z[K][np.arange(Z[K].size) != target] = -np.inf
     for k in range(K - 1, 0, -1):
         best = hops[k - 1].pull_max(Z[k + 1], layers[k - 1].states)
         Z[k] = np.where(W[k] >= s_star, np.repeat(layers[k - 1].S, M) + best, -np.inf)
     return Z
 
 
-def _read_out(fwd: Forward, Z: list[Array]) -> list[int]:
-    """The states of the best motion: from ``q0``'s best first step, each time the best edge onward."""
+def _read_out(fwd: Forward, Z: list[Array], K: int) -> list[int]:
+    """The states of the best motion to layer ``K``: from ``q0``'s best first step, each time the best edge onward."""
     states = [int(fwd.start[int(np.argmax(Z[1][fwd.start]))])]
-    for k in range(1, fwd.K):
+    for k in range(1, K):
         out = fwd.hops[k - 1].dst[fwd.hops[k - 1].src == states[-1]]
         states.append(int(out[int(np.argmax(Z[k + 1][out]))]))
     return states

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.reachability.dp import best_states, forward
 from previewctl.search.reachability.families import end_families, start_families
+from previewctl.search.reachability.goals import Goals, pick_goal
 from previewctl.search.reachability.grid import grid_model
 from previewctl.search.reachability.maps import fold_states, map_axes, map_layers, map_shape, s_maps
 from previewctl.search.reachability.motion import motion_through
@@ -38,6 +40,7 @@ def reach_over_time(
     options: ReachOptions | None = None,
     *,
     t_start: float = 0.0,
+    goals: Sequence[Goals] = (),
 ) -> ReachResult:
     """Reachability over the redundancy grid x time from ``q0`` (see :mod:`previewctl.search.reachability`).
 
@@ -50,6 +53,9 @@ def reach_over_time(
         duration: horizon [s]; layers at ``t_start + k duration / N``.
         options: grid and transition model.
         t_start: start time [s].
+        goals: candidate end configurations at future times (:mod:`~previewctl.search.reachability.goals`):
+            when one is reached, the result's motion is the best motion to the best reached goal at the
+            latest time instead of the best motion overall.
 
     Returns:
         The verdict, the best motion, the families and commit time, and the maps.
@@ -71,6 +77,10 @@ def reach_over_time(
     fwd = forward(problem, start, ev0.link_distances[0])
     s_star, states = best_states(fwd, model.M)
     motion = motion_through(model, fwd.layers, times, start, q0_S, states)
+    pick = pick_goal(red, model, fwd, times, list(goals)) if goals else None
+    if pick is not None:
+        _, to_goal = best_states(fwd, model.M, end=(pick.layer, pick.state))
+        motion = motion_through(model, fwd.layers, times, start, q0_S, to_goal)
     ends = end_families(fwd, model, times, states[-1] if states else -1, cross_beta)
     t_dp = time.perf_counter()
     axes = map_axes(red.g, model.h)
@@ -88,6 +98,7 @@ def reach_over_time(
         start_families=starts, dt=dt, joint_step=model.delta, gene_cells=model.r,
         edges=np.array([fwd.start.size, *(e.size for e in fwd.hops)], dtype=np.int64),
         timings=_timings(problem.clock, started, cpu_started, t_dp, t_extras), options=opts,
+        goal=None if pick is None else (pick.level, pick.index),
     )
 
 

@@ -102,7 +102,8 @@ class ReachResult:
         dead_end: when it does not, the last time [s] the arm can still be at (``t_0``: not even one
             step); ``None`` when it does.
         best_min_S: ``S*``: the best minimum S over ``t_1 .. t_K`` (``nan`` if no step is possible).
-        motion: the best motion (to ``t_K``, the dead end when no motion exists).
+        motion: the best motion (to ``t_K``, the dead end when no motion exists); with goals, the best
+            motion to the chosen goal (see ``goal``).
         q0_S: AMSIP of ``q0`` at ``t_0``.
         end_families: components at ``t_K`` reachable from ``q0`` (``t_K``: the end, or the dead end).
         commit_time: the last time [s] at which the arm can still reach two end families
@@ -120,6 +121,8 @@ class ReachResult:
             and the start families) and in all (``total``), and the process CPU seconds (``cpu``; on a
             shared machine the fairer figure).
         options: the options used.
+        goal: ``(level, index)`` of the goal the motion ends at (:mod:`~previewctl.search.reachability.goals`;
+            ``None``: no goals were given, or none is reached, and the motion is the best one).
     """
 
     times: Array
@@ -145,6 +148,7 @@ class ReachResult:
     edges: IntArray
     timings: dict[str, float] = field(default_factory=dict)
     options: ReachOptions = field(default_factory=ReachOptions)
+    goal: tuple[int, int] | None = None
 
     @property
     def gene_speed(self) -> Array:
