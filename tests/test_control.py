@@ -516,6 +516,17 @@ def test_coherent_reach_on_a_planar_arm_follows_the_dp_to_the_latest_reachable_p
     np.testing.assert_allclose(v, expected, atol=1e-12)
 
 
+def test_coherent_reach_plans_without_goals_until_the_searches_settle(planar4: Robot) -> None:
+    """Before ``settle_frames`` generations the plan is the DP's own best motion (no goal), as ``horizon``'s."""
+    controller, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True)
+    controller.params = replace(controller.params, settle_frames=2)
+    controller.command(0.0, q, state_for(planar4, q, path))
+    planner = controller.planner
+    assert planner is not None and planner.result is not None
+    assert controller.goal is None and planner.result.goal is None
+    assert planner.motion is planner.result.motion and planner.motion.min_S == pytest.approx(planner.result.best_min_S)
+
+
 def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:
     controller = build_law(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
                            Evaluator(planar4), np.random.default_rng(0))

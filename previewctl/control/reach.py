@@ -80,7 +80,8 @@ class ReachController:
     (:mod:`~previewctl.search.reachability.goals`): the goal is the best peak that some collision-free motion
     reaches at the latest preview time that has one (a peak near the last goal gets the ``hysteresis`` bonus),
     and the arm follows the DP's best motion to it as ``horizon`` follows its plan. With no peak reached, it
-    follows the DP's best motion over the window (``horizon``'s plan). The GA still runs one generation per
+    follows the DP's best motion over the window (``horizon``'s plan); so do the plans made before the searches
+    have run ``settle_frames`` generations (their peaks are not worth heading for yet). The GA runs one generation per
     camera frame; only the plans are periodic. The straight sweeps remain the routes of the paper-literal mode
     (``coherent = false``) and of spatial arms.
     """
@@ -249,7 +250,8 @@ class ReachController:
         planner = self._planner
         assert planner is not None
         if planner.motion is None or planner.due(t):
-            planner.plan(t, q, state, goals=self._levels)
+            settled = self._frames >= self.params.settle_frames  # before: the peaks are not worth heading for
+            planner.plan(t, q, state, goals=self._levels if settled else ())
             result = planner.result
             pick = None if result is None else result.goal
             self._goal = (None if pick is None
