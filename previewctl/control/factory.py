@@ -222,9 +222,7 @@ def build_law(
     if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command
         return OracleController(robot, params, evaluator)
     if spec.name == "horizon":  # causal: replans over the preview window [t, t + p t̃]
-        window = params.preview_time * len(params.weights)
-        replan = params.replan_period if params.replan_period is not None else params.preview_time / 2
-        return OracleController(robot, params, evaluator, window=window, replan_period=replan)
+        return OracleController.horizon(robot, params, evaluator)
     mode = "multi" if spec.name == "reach" else spec.name
     count = len(params.preview_weights(mode))
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)

@@ -117,6 +117,13 @@ class OracleController:
         self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
         self._gain = gain_vector(params.gain, robot.nv, "gain")
 
+    @classmethod
+    def horizon(cls, robot: Robot, params: ControllerParams, evaluator: Evaluator) -> OracleController:
+        """``horizon`` with the preview controllers' reach into the future: the window ``p t̃`` (``p`` the
+        number of preview weights) and ``params.replan_period`` (default ``t̃ / 2``)."""
+        replan = params.replan_period if params.replan_period is not None else params.preview_time / 2
+        return cls(robot, params, evaluator, window=params.preview_time * len(params.weights), replan_period=replan)
+
     def plan(self, t: float, q: Array, state: ControlState, goals: Sequence[Goals] = ()) -> ReachMotion:
         """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path`` (the oracle), or
         over the window ``[t, t + window]`` cut at the path's end (``horizon``); toward the best reached of

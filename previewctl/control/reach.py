@@ -118,9 +118,7 @@ class ReachController:
         # another route beats it by the hysteresis margin
         self._keep = (robot.nv - 1,) if coherent else ()
         # coherent, planar arms of up to 2 genes: the moves are planned by the reachability DP over the window
-        self._planner = (OracleController(robot, params, evaluator, window=params.preview_time * len(self.weights),
-                                          replan_period=params.replan_period or params.preview_time / 2)
-                         if coherent and robot.nq <= 4 else None)
+        self._planner = OracleController.horizon(robot, params, evaluator) if coherent and robot.nq <= 4 else None
         self._levels: list[Goals] = []
         self._peak_S: list[Array] = []  # the levels' peaks' own S (the goals' scores carry the hysteresis bonus)
         self._goal: tuple[int, Array, float] | None = None  # (level, configuration, S) of the last planned goal

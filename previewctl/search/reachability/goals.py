@@ -2,8 +2,9 @@
 
 A goal configuration ``q`` at time ``t_i`` is *reached* when a state of the layer nearest ``t_i`` that the
 forward pass reached lies within one grid step ``h`` of ``q``'s genes (modulo a full turn), on ``q``'s
-elbow branch (the one with the best bottleneck when several are). The chosen goal is the best (largest S) reached one
-at the latest time that has any: the arm heads for the furthest future it can be sure to get to.
+elbow branch (the one with the best bottleneck when several are). The chosen goal is the best (largest
+score) reached one at the latest time that has any: the arm heads for the furthest future it can be sure
+to get to.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ class Pick:
 def pick_goal(red: PlanarRedundancy, model: GridModel, fwd: Forward, times: Array,
               goals: list[Goals]) -> Pick | None:
     """The best reached goal at the latest level that has one (``None``: no goal is reached)."""
-    picks: list[tuple[int, Pick, float]] = []  # (level, pick, score)
+    picks: list[tuple[Pick, float]] = []  # (pick, score)
     for level, goal in enumerate(goals):
         k = int(np.argmin(np.abs(times - goal.t)))
         if k < 1 or k > fwd.K or not len(goal.q):
@@ -55,11 +56,11 @@ def pick_goal(red: PlanarRedundancy, model: GridModel, fwd: Forward, times: Arra
         for index in np.argsort(-np.asarray(goal.score)):
             state = _reached_state(red, model, fwd, k, np.asarray(goal.q[index], dtype=float))
             if state is not None:
-                picks.append((level, Pick(level, int(index), k, state), float(goal.score[index])))
+                picks.append((Pick(level, int(index), k, state), float(goal.score[index])))
                 break
     if not picks:
         return None
-    return max(picks, key=lambda p: (p[1].layer, p[2]))[1]
+    return max(picks, key=lambda p: (p[0].layer, p[1]))[0]
 
 
 def _reached_state(red: PlanarRedundancy, model: GridModel, fwd: Forward, k: int, q: Array) -> int | None:
