@@ -15,7 +15,7 @@ import pytest
 from previewctl.bench.scenes import generate
 from previewctl.cli.main import main
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import OracleController
+from previewctl.control.oracle import ORACLE_OPTIONS, OracleController
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
@@ -28,6 +28,7 @@ from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
+from previewctl.search.reachability.grid import MAX_GRID_NODES, full_speed
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -543,6 +544,21 @@ def test_oracle_tracks_the_plan_without_collision() -> None:
     # the arm stays near its plan (the target is taken 0.1 s ahead on the plan)
     gap = np.abs(result.q - result.targets[:, 0]).max()
     assert gap < 0.15
+
+
+@pytest.mark.parametrize(("duration", "resolution"), [(8.0, 2.0), (50.0, 4.0), (3.0, 2.0)])
+def test_the_oracles_grid_lets_the_genes_move_at_the_joint_speed_limit(planar4: Robot, duration: float,
+                                                                       resolution: float) -> None:
+    """full_speed: the gene cap r h / Δt reaches the joint speed limit, never with fewer steps than asked, on the
+    finest grid (2°, else 4°, ...) whose nodes fit the budget (50 s at 2° would need 478 steps: 125 M nodes)."""
+    opts = full_speed(planar4, ORACLE_OPTIONS, duration)
+    assert opts.resolution_deg == resolution and opts.steps >= ORACLE_OPTIONS.steps
+    h, dt = np.radians(opts.resolution_deg), duration / opts.steps
+    assert opts.max_step_cells * h / dt >= planar4.velocity_limits[:2].max() - 1e-9
+    cells = (int(720 / resolution) + 1) ** 2  # planar4's genes: [-360, 360] deg
+    assert cells * 2 * (opts.steps + 1) <= MAX_GRID_NODES
+    if opts.steps > ORACLE_OPTIONS.steps:  # no fewer steps would do
+        assert opts.max_step_cells * h / (duration / (opts.steps - 1)) < planar4.velocity_limits[:2].max()
 
 
 # ------------------------------------------------------------------------------------- horizon

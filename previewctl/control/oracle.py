@@ -48,10 +48,14 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
 from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
+from previewctl.search.reachability.grid import full_speed
 from previewctl.types import Array
 
 ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
-"""The DP the oracle plans with by default: 2° grid, 50 steps over the rest of the path, no figure maps."""
+"""The DP the oracle plans with by default: 2° grid, at least 50 steps over the rest of the path, no figure maps.
+Each plan raises the steps until a gene may move at its joint speed limit, coarsening the grid (4°, 8°, ...)
+when that many steps would not fit (:func:`~previewctl.search.reachability.grid.full_speed`): on the 8 s bench
+scenes 2° and 77 steps, on the paper's 50 s scenes 4° and 239 steps."""
 HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, map_times=0)
 """The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
 :data:`HORIZON_STEP` of the window)."""
@@ -71,8 +75,9 @@ class OracleController:
         evaluator: the AMSIP evaluator of the scene (the DP's S and distances).
         plan: a plan made before (a :class:`ReachResult` or its :class:`ReachMotion`); default: planned at
             the first call.
-        options: the DP's grid and transition model (default :data:`ORACLE_OPTIONS`); the number of
-            steps is lowered when the path left is too short for it (a step must let a gene move by at
+        options: the DP's grid and transition model (default :data:`ORACLE_OPTIONS`). The oracle raises the
+            number of steps until a gene may move at its joint speed limit (coarsening the grid if needed);
+            every plan lowers it when the path left is too short for it (a step must let a gene move by at
             least one grid cell).
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
         window: ``horizon`` mode: how far ahead [s] each plan looks (``None``: the oracle, the whole rest).
@@ -140,6 +145,8 @@ class OracleController:
         options = self.options
         if self.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
+        else:  # the reference may move as fast as the arm can
+            options = full_speed(self.robot, options, horizon)
         slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
         if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)

@@ -10,7 +10,7 @@ bounds per step ``δ_j``, the gene cells per step ``r_a`` and the sweep radii ``
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -169,6 +169,23 @@ def sweep_radii(robot: Robot) -> Array:
 def bounded(lo: float, hi: float) -> bool:
     """Whether both limits are finite."""
     return bool(np.isfinite(lo) and np.isfinite(hi))
+
+
+def full_speed(robot: Robot, opts: ReachOptions, duration: float) -> ReachOptions:
+    """``opts`` with enough steps over ``duration`` [s] that every gene may move at its joint speed limit
+    (``max_step_cells · h / Δt >= v_a``; never fewer steps than ``opts.steps``), on the finest grid of ``h``,
+    ``2h``, ``4h``, ... whose nodes fit :data:`MAX_GRID_NODES` (the coarsest tried is 90°)."""
+    red = PlanarRedundancy(robot)
+    limits = robot.velocity_limits[: red.g] * opts.velocity_scale
+    speed = float(np.max(limits[np.isfinite(limits)], initial=0.0))
+    resolution = opts.resolution_deg
+    while True:
+        h = math.radians(resolution)
+        steps = max(opts.steps, math.ceil(duration * speed / (opts.max_step_cells * h) - 1e-9))
+        cells = int(np.prod([len(axis) for axis in gene_axes(red, h)[0]]))
+        if cells * int(red.branches) * (steps + 1) <= MAX_GRID_NODES or 2 * resolution > 90:
+            return replace(opts, resolution_deg=resolution, steps=steps)
+        resolution *= 2
 
 
 def gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolArray]:
