@@ -28,7 +28,7 @@ from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
-from previewctl.search.reachability.grid import MAX_GRID_NODES, full_speed
+from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -546,19 +546,25 @@ def test_oracle_tracks_the_plan_without_collision() -> None:
     assert gap < 0.15
 
 
-@pytest.mark.parametrize(("duration", "resolution"), [(8.0, 2.0), (50.0, 4.0), (3.0, 2.0)])
-def test_the_oracles_grid_lets_the_genes_move_at_the_joint_speed_limit(planar4: Robot, duration: float,
-                                                                       resolution: float) -> None:
-    """full_speed: the gene cap r h / Δt reaches the joint speed limit, never with fewer steps than asked, on the
-    finest grid (2°, else 4°, ...) whose nodes fit the budget (50 s at 2° would need 478 steps: 125 M nodes)."""
-    opts = full_speed(planar4, ORACLE_OPTIONS, duration)
-    assert opts.resolution_deg == resolution and opts.steps >= ORACLE_OPTIONS.steps
-    h, dt = np.radians(opts.resolution_deg), duration / opts.steps
-    assert opts.max_step_cells * h / dt >= planar4.velocity_limits[:2].max() - 1e-9
-    cells = (int(720 / resolution) + 1) ** 2  # planar4's genes: [-360, 360] deg
-    assert cells * 2 * (opts.steps + 1) <= MAX_GRID_NODES
+@pytest.mark.parametrize(("duration", "share", "resolution", "steps"),
+                         [(8.0, 0.5, 2.0, 50), (8.0, 1.0, 2.0, 77), (50.0, 0.5, 4.0, 120), (50.0, 1.0, 4.0, 239)])
+def test_the_oracles_grid_lets_the_genes_move_fast_enough(planar4: Robot, duration: float, share: float,
+                                                          resolution: float, steps: int) -> None:
+    """fast_enough: the gene cap r h / Δt reaches the share of the joint speed limit with the fewest steps (never
+    fewer than asked) on the finest grid (2°, else 4°, ...) whose nodes fit the budget (50 s at 2° and half speed
+    would need 239 steps: 62 M nodes)."""
+    opts = fast_enough(planar4, ORACLE_OPTIONS, duration, share)
+    assert (opts.resolution_deg, opts.steps) == (resolution, steps)
+    h, speed = np.radians(opts.resolution_deg), share * planar4.velocity_limits[:2].max()
+    assert opts.max_step_cells * h / (duration / opts.steps) >= speed - 1e-9
     if opts.steps > ORACLE_OPTIONS.steps:  # no fewer steps would do
-        assert opts.max_step_cells * h / (duration / (opts.steps - 1)) < planar4.velocity_limits[:2].max()
+        assert opts.max_step_cells * h / (duration / (opts.steps - 1)) < speed
+    def nodes(deg: float, n_steps: int) -> int:
+        return (int(720 / deg) + 1) ** 2 * 2 * (n_steps + 1)  # planar4's genes: [-360, 360] deg, two branches
+
+    assert nodes(resolution, opts.steps) <= MAX_GRID_NODES
+    if resolution > 2.0:  # the finer grid would not fit
+        assert nodes(2.0, int(np.ceil(duration * speed / (opts.max_step_cells * np.radians(2.0))))) > MAX_GRID_NODES
 
 
 # ------------------------------------------------------------------------------------- horizon

@@ -48,14 +48,20 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
 from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
-from previewctl.search.reachability.grid import full_speed
+from previewctl.search.reachability.grid import fast_enough
 from previewctl.types import Array
 
 ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
 """The DP the oracle plans with by default: 2° grid, at least 50 steps over the rest of the path, no figure maps.
-Each plan raises the steps until a gene may move at its joint speed limit, coarsening the grid (4°, 8°, ...)
-when that many steps would not fit (:func:`~previewctl.search.reachability.grid.full_speed`): on the 8 s bench
-scenes 2° and 77 steps, on the paper's 50 s scenes 4° and 239 steps."""
+Each plan raises the steps until a gene may move at :data:`ORACLE_GENE_SPEED` of its joint speed limit,
+coarsening the grid (4°, 8°, ...) when that many steps would not fit
+(:func:`~previewctl.search.reachability.grid.fast_enough`): on the 8 s bench scenes that leaves 2° and 50 steps
+(genes up to 65 % of their limit), on the paper's 50 s scenes it gives 4° and 120 steps (genes up to 50 %
+instead of 10 % with 50 steps at 2°)."""
+ORACLE_GENE_SPEED = 0.5
+"""The share of a gene's joint speed limit the oracle's DP must allow at least. The rest is the hand task's:
+with plans at the full limit (tried), eq. 19 scaled the commands down and the oracle collided on 4 more of the
+50 bench scenes (98 % -> 90 % collision-free under eq. 19; 92 % at 1 mm under the QP either way)."""
 HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, map_times=0)
 """The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
 :data:`HORIZON_STEP` of the window)."""
@@ -76,7 +82,8 @@ class OracleController:
         plan: a plan made before (a :class:`ReachResult` or its :class:`ReachMotion`); default: planned at
             the first call.
         options: the DP's grid and transition model (default :data:`ORACLE_OPTIONS`). The oracle raises the
-            number of steps until a gene may move at its joint speed limit (coarsening the grid if needed);
+            number of steps until a gene may move at :data:`ORACLE_GENE_SPEED` of its joint speed limit
+            (coarsening the grid if needed);
             every plan lowers it when the path left is too short for it (a step must let a gene move by at
             least one grid cell).
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
@@ -145,8 +152,8 @@ class OracleController:
         options = self.options
         if self.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
-        else:  # the reference may move as fast as the arm can
-            options = full_speed(self.robot, options, horizon)
+        else:  # the reference's genes may move at half the arm's speed limits
+            options = fast_enough(self.robot, options, horizon, ORACLE_GENE_SPEED)
         slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
         if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)

@@ -171,12 +171,12 @@ def bounded(lo: float, hi: float) -> bool:
     return bool(np.isfinite(lo) and np.isfinite(hi))
 
 
-def full_speed(robot: Robot, opts: ReachOptions, duration: float) -> ReachOptions:
-    """``opts`` with enough steps over ``duration`` [s] that every gene may move at its joint speed limit
-    (``max_step_cells · h / Δt >= v_a``; never fewer steps than ``opts.steps``), on the finest grid of ``h``,
-    ``2h``, ``4h``, ... whose nodes fit :data:`MAX_GRID_NODES` (the coarsest tried is 90°)."""
+def fast_enough(robot: Robot, opts: ReachOptions, duration: float, share: float) -> ReachOptions:
+    """``opts`` with enough steps over ``duration`` [s] that a gene may move at ``share`` of its joint speed limit
+    (``max_step_cells · h / Δt >= share · v_a``; never fewer steps than ``opts.steps``), on the finest grid of
+    ``h``, ``2h``, ``4h``, ... whose nodes fit :data:`MAX_GRID_NODES` (the coarsest tried is 90°)."""
     red = PlanarRedundancy(robot)
-    limits = robot.velocity_limits[: red.g] * opts.velocity_scale
+    limits = robot.velocity_limits[: red.g] * opts.velocity_scale * share
     speed = float(np.max(limits[np.isfinite(limits)], initial=0.0))
     resolution = opts.resolution_deg
     while True:
