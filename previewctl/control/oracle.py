@@ -83,9 +83,8 @@ class OracleController:
             the first call.
         options: the DP's grid and transition model (default :data:`ORACLE_OPTIONS`). The oracle raises the
             number of steps until a gene may move at :data:`ORACLE_GENE_SPEED` of its joint speed limit
-            (coarsening the grid if needed);
-            every plan lowers it when the path left is too short for it (a step must let a gene move by at
-            least one grid cell).
+            (coarsening the grid if needed); every plan lowers it when the path left is too short for it (a
+            step must let a gene move by at least one grid cell).
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
         window: ``horizon`` mode: how far ahead [s] each plan looks (``None``: the oracle, the whole rest).
         replan_period: ``horizon`` mode: time between plans [s].
