@@ -119,8 +119,7 @@ class ReachController:
         self._keep = (robot.nv - 1,) if coherent else ()
         # coherent, planar arms of up to 2 genes: the moves are planned by the reachability DP over the window
         self._planner = OracleController.horizon(robot, params, evaluator) if coherent and robot.nq <= 4 else None
-        self._levels: list[Goals] = []
-        self._peak_S: list[Array] = []  # the levels' peaks' own S (the goals' scores carry the hysteresis bonus)
+        self._peaks: list[tuple[float, Array, Array]] = []  # the last frame's (t_i [s], peaks, their S) per level
         self._goal: tuple[int, Array, float] | None = None  # (level, configuration, S) of the last planned goal
 
     @property
@@ -208,9 +207,14 @@ class ReachController:
     def _continues(self, level: int, nodes: Array) -> NDArray[np.bool_]:
         """Which ``nodes`` of ``level`` continue the last route's node there (coherent mode only)."""
         route = self._route
-        if not self.params.coherent or route is None or level >= len(route.nodes) or not len(nodes):
+        keeps = self.params.coherent and route is not None and level < len(route.nodes)
+        return self._near(route.nodes[level] if keeps and route is not None else None, nodes)
+
+    def _near(self, reference: Array | None, nodes: Array) -> NDArray[np.bool_]:
+        """Which ``nodes`` lie within ``track_radius`` of ``reference`` (none without a reference)."""
+        if reference is None or not len(nodes):
             return np.zeros(len(nodes), dtype=bool)
-        angles = self.robot.angles_of(np.vstack([route.nodes[level][None], nodes]))
+        angles = self.robot.angles_of(np.vstack([reference[None], nodes]))
         distance = joint_distance(angles[1:], angles[:1], self.robot.joints.full_turn)[:, 0]
         return np.asarray(distance <= self.params.track_radius)
 
@@ -229,18 +233,15 @@ class ReachController:
         if self._planner is None:
             self._route = self._choose(t, q, levels, path)
         else:
-            self._levels = [Goals(t_i, nodes, values * (1.0 + self.params.hysteresis * self._near_goal(i, nodes)))
-                            for i, (t_i, (nodes, values)) in enumerate(zip(times, levels, strict=True))]
-            self._peak_S = [values for _, values in levels]
+            self._peaks = [(t_i, nodes, values) for t_i, (nodes, values) in zip(times, levels, strict=True)]
         return self._fallback
 
-    def _near_goal(self, level: int, nodes: Array) -> NDArray[np.bool_]:
-        """Which ``nodes`` of ``level`` continue the last planned goal (within ``track_radius`` of it)."""
-        if self._goal is None or self._goal[0] != level or not len(nodes):
-            return np.zeros(len(nodes), dtype=bool)
-        angles = self.robot.angles_of(np.vstack([self._goal[1][None], nodes]))
-        distance = joint_distance(angles[1:], angles[:1], self.robot.joints.full_turn)[:, 0]
-        return np.asarray(distance <= self.params.track_radius)
+    def _goals(self) -> list[Goals]:
+        """The last frame's peaks as the DP's goals, those near the last planned goal with the hysteresis bonus."""
+        goal = self._goal
+        return [Goals(t_i, nodes, values * (1.0 + self.params.hysteresis
+                                            * self._near(goal[1] if goal and goal[0] == i else None, nodes)))
+                for i, (t_i, nodes, values) in enumerate(self._peaks)]
 
     def _planned(self, t: float, q: Array, state: ControlState, targets: Array,
                  values: Array) -> tuple[Array, ControlInfo]:
@@ -249,11 +250,13 @@ class ReachController:
         assert planner is not None
         if planner.motion is None or planner.due(t):
             settled = self._frames >= self.params.settle_frames  # before: the peaks are not worth heading for
-            planner.plan(t, q, state, goals=self._levels if settled else ())
-            result = planner.result
-            pick = None if result is None else result.goal
-            self._goal = (None if pick is None
-                          else (pick[0], self._levels[pick[0]].q[pick[1]], float(self._peak_S[pick[0]][pick[1]])))
+            planner.plan(t, q, state, goals=self._goals() if settled else ())
+            pick = None if planner.result is None else planner.result.goal
+            if pick is None:
+                self._goal = None
+            else:
+                _, nodes, peak_S = self._peaks[pick[0]]
+                self._goal = (pick[0], nodes[pick[1]], float(peak_S[pick[1]]))
         targets, values = targets.copy(), values.copy()
         if self._goal is not None:
             level, goal, S = self._goal
