@@ -351,6 +351,40 @@ def test_motion_to_a_goal_matches_brute_force(planar3: Robot) -> None:
     assert alone.motion.q.shape[0] == 6
 
 
+def test_a_reached_goal_that_leads_nowhere_is_passed_over(planar4_intermediate: Robot) -> None:
+    """A goal counts only if a motion goes on from it to the window's end: at layer 3 of 4 (45 deg grid, found by
+    a seeded search) two states are reached but are dead ends with no viable state within a grid step; as
+    goals they are passed over for a worse-scored viable one, and alone they leave the best motion overall."""
+    path = HandPath(np.array([(1.1105, 0.8467), (1.2459, 0.8913)]), 3.2)
+    discs = [(0.2872, (-1.0238, -0.7147)), (0.285, (0.401, -1.4464))]
+    scene = Scene(tuple(Obstacle(f"disc{i}", Sphere(r), Static(np.array([*c, 0.0]))) for i, (r, c) in enumerate(discs)))
+    q0 = start_on_path(planar4_intermediate, path, (0.2963, 2.6483), 0)
+    opts = ReachOptions(resolution_deg=45.0, steps=4, max_step_cells=3)
+    evaluator = Evaluator(planar4_intermediate, scene)
+    brute, k, h = Brute(planar4_intermediate, evaluator, path, q0, 3.2, opts), 3, np.radians(45.0)
+    assert brute.last_layer() == 4
+    layer, reached = brute.layers[k], set(brute.prefixes[k][:, -1].tolist())
+    viable = set(brute.prefixes[4][:, k - 1].tolist())
+
+    def near(a: int, b: int) -> bool:
+        return bool(layer["branch"][a] == layer["branch"][b]
+                    and np.all(np.abs(wrap_angle(layer["genes"][a] - layer["genes"][b])) <= h + 1e-9))
+
+    dead = sorted(s for s in reached - viable if not any(near(s, v) for v in viable))
+    assert len(dead) == 2
+    alive = min(viable)
+    t_k = float(brute.times[k])
+    goals = [Goals(t_k, np.array([brute.q(k, s) for s in (*dead, alive)]), np.array([10.0, 9.0, 1.0]))]
+    result = reach_over_time(planar4_intermediate, evaluator, path, q0, 3.2, opts, goals=goals)
+    assert result.goal == (0, 2)
+    assert np.allclose(result.motion.q[-1], brute.q(k, alive), atol=1e-9) or any(
+        near(alive, s) and np.allclose(result.motion.q[-1], brute.q(k, s), atol=1e-9) for s in viable)
+    only_dead = [Goals(t_k, np.array([brute.q(k, s) for s in dead]), np.array([10.0, 9.0]))]
+    alone = reach_over_time(planar4_intermediate, evaluator, path, q0, 3.2, opts, goals=only_dead)
+    assert alone.goal is None and alone.motion.min_S == pytest.approx(alone.best_min_S, rel=1e-12)
+    assert alone.motion.q.shape[0] == 5
+
+
 def test_planar3_narrow_joint_limits(tmp_path: Path) -> None:
     """Joint limits narrower than a turn (q1 in [-2.5, 3], q2 in [-3.5, 0.5]): the limits cut states and
     motions exactly as the enumeration in unwrapped joint space says."""
@@ -570,13 +604,14 @@ def test_the_oracles_grid_lets_the_genes_move_fast_enough(planar4: Robot, durati
 # ------------------------------------------------------------------------------------- horizon
 
 
-def test_horizon_plans_only_over_its_preview_window_every_half_preview_time() -> None:
-    """horizon is causal: each plan starts at its cycle's time and ends by t + p t̃ (3 s here); a new one
-    every t̃ / 2 = 0.5 s."""
+@pytest.mark.parametrize(("plan_window", "window"), [(None, 3.0), (4.5, 4.5)])
+def test_horizon_plans_only_over_its_window_every_half_preview_time(plan_window: float | None,
+                                                                     window: float) -> None:
+    """horizon is causal: each plan starts at its cycle's time and ends at t + plan_window (by default the last
+    preview time, t + p t̃ = 3 s here; the 8 s path is not over yet); a new one every t̃ / 2 = 0.5 s."""
     scenario = generate("planar4", 1, 0).scenario()
-    ctrl = make_controller(scenario, name="horizon")
-    params = ctrl.params
-    window = params.preview_time * len(params.weights)
+    params = dataclasses.replace(scenario.controller.params, plan_window=plan_window)
+    ctrl = make_controller(scenario, name="horizon", params=params)
     q, dt, plans = np.array(scenario.q0), 0.01, {}
     for k in range(151):
         qdot = ctrl.step(q, k * dt, dt)
@@ -584,7 +619,7 @@ def test_horizon_plans_only_over_its_preview_window_every_half_preview_time() ->
         plans[float(motion.times[0])] = float(motion.times[-1])
         q = integrate(scenario.robot, q, qdot, dt)
     assert list(plans) == pytest.approx([0.0, 0.5, 1.0, 1.5])
-    assert all(start < end <= start + window + 1e-9 for start, end in plans.items())
+    assert [end - start for start, end in plans.items()] == pytest.approx([window] * 4)
 
 
 def test_horizon_finishes_a_bench_scene_where_the_qp_baseline_is_trapped() -> None:
@@ -597,8 +632,10 @@ def test_horizon_finishes_a_bench_scene_where_the_qp_baseline_is_trapped() -> No
     assert summary["success"] and summary["max_hand_error"] < 1e-3
 
 
-def test_horizon_refuses_a_spatial_arm_and_a_bad_replan_period() -> None:
+def test_horizon_refuses_a_spatial_arm_and_a_bad_replan_period_or_window() -> None:
     with pytest.raises(PlanarOnlyError, match=r"^horizon: planar arms only \(robot 'panda' is spatial\)"):
         make_controller(load_scenario(SCENARIOS / "panda_crossing.toml"), name="horizon")
     with pytest.raises(ParameterError, match="replan_period"):
         ControllerParams(replan_period=0.0)
+    with pytest.raises(ParameterError, match=r"plan_window.*-1"):
+        ControllerParams(plan_window=-1.0)

@@ -73,11 +73,15 @@ class Profile:
 
 _SPATIAL_CONTROLLER = {"gradient_gain": 1e-3, "feedback_gain": 5.0, "gain": 1.0, "preview_time": 1.0}
 """The settings of scenarios/panda_crossing.toml and xarm7_crossing.toml (without the local term)."""
+_PLANAR_CONTROLLER = {"feedback_gain": 5.0, "plan_window": 4.5}
+"""``plan_window``: the DP of ``horizon`` and ``reach`` looks 4.5 s ahead, not only to the last preview time (3 s);
+chosen on the held-out scenes (scene seed 1: ``reach`` 87 -> 97 %, ``horizon`` 90 -> 97 % at 1 mm; 6 s gave
+the same, at a higher cost), before the reported ones were run."""
 
 PROFILES: dict[str, Profile] = {
     "planar4": Profile(q0_center=(0.0, 0.0, 0.0, 0.0), q0_spread=(math.pi, 2.5, 2.5, 2.5), segments=2,
                        segment_length=(0.3, 0.5), reach=(1.0, 2.6), height=None, radius=(0.08, 0.15),
-                       speed=(0.15, 0.35), duration=8.0, controller={"feedback_gain": 5.0}),
+                       speed=(0.15, 0.35), duration=8.0, controller=_PLANAR_CONTROLLER),
     # nominal poses: q0 of scenarios/panda_crossing.toml and scenarios/xarm7_crossing.toml
     "panda": Profile(q0_center=(-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785), q0_spread=(0.4,) * 7,
                      segments=1, segment_length=(0.3, 0.5), reach=(0.3, 0.7), height=(0.15, 0.7),

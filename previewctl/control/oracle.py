@@ -24,11 +24,11 @@ the path (``path.end_time − t``); that first cycle therefore takes seconds. Pa
 a plan made before. Planar arms of 2-4 joints only (the DP's grid).
 
 ``horizon`` is the same machinery made causal: the paper's "future reachability evaluation" done by
-the DP instead of by imaginary arms. It reads the future only as far as the preview controllers do,
-up to the last preview time ``t + p t̃`` (3 s with three previews 1 s apart, as on the bench scenes):
-every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration over
-``[t, t + p t̃]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at most
-24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
+the DP instead of by imaginary arms. It reads the future only over a window of ``plan_window`` [s]
+(default: as far as the preview controllers do, to the last preview time ``t + p t̃``; the bench's planar
+scenes set 4.5 s): every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration
+over ``[t, t + plan_window]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at
+most 24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
 the window and knows nothing beyond it.
 """
 
@@ -130,10 +130,11 @@ class OracleController:
 
     @classmethod
     def horizon(cls, robot: Robot, params: ControllerParams, evaluator: Evaluator) -> OracleController:
-        """``horizon`` with the preview controllers' reach into the future: the window ``p t̃`` (``p`` the
-        number of preview weights) and ``params.replan_period`` (default ``t̃ / 2``)."""
+        """``horizon`` with the window ``params.plan_window`` (default ``p t̃``, the preview controllers' reach into
+        the future, ``p`` the number of preview weights) and ``params.replan_period`` (default ``t̃ / 2``)."""
         replan = params.replan_period if params.replan_period is not None else params.preview_time / 2
-        return cls(robot, params, evaluator, window=params.preview_time * len(params.weights), replan_period=replan)
+        window = params.plan_window if params.plan_window is not None else params.preview_time * len(params.weights)
+        return cls(robot, params, evaluator, window=window, replan_period=replan)
 
     def plan(self, t: float, q: Array, state: ControlState, goals: Sequence[Goals] = ()) -> ReachMotion:
         """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path`` (the oracle), or

@@ -108,8 +108,10 @@ class ControllerParams(Checked):
         hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
-        replan_period: ``horizon``: time between two plans [s] (each looks ``previews · preview_time`` ahead);
-            ``None`` (the default): half the preview time.
+        replan_period: ``horizon`` and planar ``reach``: time between two DP plans [s]; ``None`` (the default):
+            half the preview time.
+        plan_window: ``horizon`` and planar ``reach``: how far ahead [s] each DP plan looks; ``None`` (the
+            default): to the last preview time, ``previews · preview_time``.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
@@ -143,6 +145,7 @@ class ControllerParams(Checked):
     settle_frames: Count = 15
     track_radius: Positive = 0.5
     replan_period: Positive | None = None
+    plan_window: Positive | None = None
     execution: ExecutionMode = "qp"
     task_weight: Positive = 1e4
     slack_weight: Positive = 1e6

@@ -76,9 +76,10 @@ class ReachController:
     reachability DP over the preview window instead of straight sweeps, so a route may bend around an
     obstacle or through the stretched wrist. Every ``replan_period`` (default ``t̃ / 2``) the DP of
     :class:`~previewctl.control.oracle.OracleController` (``horizon``'s grid) runs from ``q`` over
-    ``[t, t + p t̃]`` with the imaginary arms' positive peaks as goals
+    ``[t, t + plan_window]`` (default ``p t̃``) with the imaginary arms' positive peaks as goals
     (:mod:`~previewctl.search.reachability.goals`): the goal is the best peak that some collision-free motion
-    reaches at the latest preview time that has one (a peak near the last goal gets the ``hysteresis`` bonus),
+    reaches, and can go on from to the window's end, at the latest preview time that has one (a peak near the
+    last goal gets the ``hysteresis`` bonus),
     and the arm follows the DP's best motion to it as ``horizon`` follows its plan. With no peak reached, it
     follows the DP's best motion over the window (``horizon``'s plan); so do the plans made before the searches
     have run ``settle_frames`` generations (their peaks are not worth heading for yet). The GA runs one generation per

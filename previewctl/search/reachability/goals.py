@@ -1,10 +1,11 @@
 """Goals: given configurations at future times (the imaginary arms' peaks), which the DP reaches from ``q0``.
 
 A goal configuration ``q`` at time ``t_i`` is *reached* when a state of the layer nearest ``t_i`` that the
-forward pass reached lies within one grid step ``h`` of ``q``'s genes (modulo a full turn), on ``q``'s
-elbow branch (the one with the best bottleneck when several are). The chosen goal is the best (largest
-score) reached one at the latest time that has any: the arm heads for the furthest future it can be sure
-to get to.
+forward pass reached, and from which some motion goes on to the last layer it reached (a *viable* state:
+a goal that is a dead end before the window's end is no goal), lies within one grid step ``h`` of ``q``'s
+genes (modulo a full turn), on ``q``'s elbow branch (the one with the best bottleneck when several are).
+The chosen goal is the best (largest score) reached one at the latest time that has any: the arm heads for
+the furthest future it can be sure to get to, and to go on from.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.search.reachability.dp import Forward
 from previewctl.search.reachability.grid import GridModel
 from previewctl.search.redundancy import wrap_angle
-from previewctl.types import Array
+from previewctl.types import Array, BoolArray
 
 
 @dataclass(frozen=True)
@@ -45,16 +46,17 @@ class Pick:
     state: int
 
 
-def pick_goal(red: PlanarRedundancy, model: GridModel, fwd: Forward, times: Array,
+def pick_goal(red: PlanarRedundancy, model: GridModel, fwd: Forward, viable: list[BoolArray], times: Array,
               goals: list[Goals]) -> Pick | None:
-    """The best reached goal at the latest level that has one (``None``: no goal is reached)."""
+    """The best reached goal at the latest level that has one (``None``: no goal is reached); ``viable[k - 1]``:
+    the states of layer ``k`` from which a motion reaches the last layer ``fwd.K``."""
     picks: list[tuple[Pick, float]] = []  # (pick, score)
     for level, goal in enumerate(goals):
         k = int(np.argmin(np.abs(times - goal.t)))
         if k < 1 or k > fwd.K or not len(goal.q):
             continue
         for index in np.argsort(-np.asarray(goal.score)):
-            state = _reached_state(red, model, fwd, k, np.asarray(goal.q[index], dtype=float))
+            state = _reached_state(red, model, fwd, viable[k - 1], k, np.asarray(goal.q[index], dtype=float))
             if state is not None:
                 picks.append((Pick(level, int(index), k, state), float(goal.score[index])))
                 break
@@ -63,11 +65,12 @@ def pick_goal(red: PlanarRedundancy, model: GridModel, fwd: Forward, times: Arra
     return max(picks, key=lambda p: (p[0].layer, p[1]))[0]
 
 
-def _reached_state(red: PlanarRedundancy, model: GridModel, fwd: Forward, k: int, q: Array) -> int | None:
-    """The reached state of layer ``k`` within one grid step of ``q``'s genes (angles compared modulo a full
-    turn: the same physical configuration) on its elbow branch, with the best bottleneck ``W_k``."""
+def _reached_state(red: PlanarRedundancy, model: GridModel, fwd: Forward, viable: BoolArray, k: int,
+                   q: Array) -> int | None:
+    """The reached, ``viable`` state of layer ``k`` within one grid step of ``q``'s genes (angles compared modulo a
+    full turn: the same physical configuration) on its elbow branch, with the best bottleneck ``W_k``."""
     layer, M, g = fwd.layers[k - 1], model.M, model.periodic.size
-    W = fwd.W[k].reshape(-1, M)
+    W = np.where(viable, fwd.W[k], -np.inf).reshape(-1, M)
     genes, branch = red.genes_of(q[None, :])
     rows = np.flatnonzero(np.isfinite(W).any(axis=1) & (layer.branch == int(branch[0])))
     if g and rows.size:

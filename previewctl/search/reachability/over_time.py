@@ -54,8 +54,9 @@ def reach_over_time(
         options: grid and transition model.
         t_start: start time [s].
         goals: candidate end configurations at future times (:mod:`~previewctl.search.reachability.goals`):
-            when one is reached, the result's motion is the best motion to the best reached goal at the
-            latest time instead of the best motion overall.
+            when one is reached (and viable: a motion goes on from it to the last layer reached), the
+            result's motion is the best motion to the best reached goal at the latest time instead of the best
+            motion overall.
 
     Returns:
         The verdict, the best motion, the families and commit time, and the maps.
@@ -77,11 +78,11 @@ def reach_over_time(
     fwd = forward(problem, start, ev0.link_distances[0])
     s_star, states = best_states(fwd, model.M)
     motion = motion_through(model, fwd.layers, times, start, q0_S, states)
-    pick = pick_goal(red, model, fwd, times, list(goals)) if goals else None
+    ends = end_families(fwd, model, times, states[-1] if states else -1, cross_beta)
+    pick = pick_goal(red, model, fwd, ends.viable, times, list(goals)) if goals else None
     if pick is not None:
         _, to_goal = best_states(fwd, model.M, end=(pick.layer, pick.state))
         motion = motion_through(model, fwd.layers, times, start, q0_S, to_goal)
-    ends = end_families(fwd, model, times, states[-1] if states else -1, cross_beta)
     t_dp = time.perf_counter()
     axes = map_axes(red.g, model.h)
     shown = map_layers(problem, opts.map_times)
