@@ -527,6 +527,21 @@ def test_coherent_reach_plans_without_goals_until_the_searches_settle(planar4: R
     assert planner.motion is planner.result.motion and planner.motion.min_S == pytest.approx(planner.result.best_min_S)
 
 
+def test_coherent_reach_at_the_path_end_keeps_no_goal_of_an_earlier_plan(planar4: Robot) -> None:
+    """A plan due at the path's end has nothing to track: the arm holds ``q`` and no goal of the last plan
+    (whose peaks may be gone by then) is looked up again."""
+    controller, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True)
+    controller.command(0.0, q, state_for(planar4, q, path))
+    assert controller.goal is not None and controller.goal[0] == 1
+    for search in controller.searches:
+        search._peaks = search._peaks[:1]  # type: ignore[attr-defined]  # only the far peak is left
+    v, _ = controller.command(path.end_time, q, state_for(planar4, q, path))
+    planner = controller.planner
+    assert planner is not None and planner.result is None and controller.goal is None
+    np.testing.assert_allclose(planner.motion.q, [q])  # type: ignore[union-attr]
+    assert np.all(np.isfinite(v))
+
+
 def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:
     controller = build_law(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
                            Evaluator(planar4), np.random.default_rng(0))

@@ -144,7 +144,8 @@ class OracleController:
         horizon = state.path.end_time - t
         if self.window is not None:
             horizon = min(horizon, self.window)
-        if horizon <= 0:  # nothing left to track: hold q
+        if horizon <= 0:  # nothing left to track: hold q (no DP result, so no goal of an earlier plan either)
+            self.result = None
             self.motion = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
                                       branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
                                       min_S=float("nan"), total_S=0.0)
