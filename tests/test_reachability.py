@@ -561,6 +561,22 @@ def test_cli_reach_map_table(capsys: pytest.CaptureFixture[str]) -> None:
         assert label in out
 
 
+def test_cli_reach_map_takes_enough_steps_for_the_genes_speed_by_default(capsys: pytest.CaptureFixture[str],
+                                                                         tmp_path: Path) -> None:
+    """Without --steps, the oracle's model: at least 50 steps, more where a gene could not move at half its joint
+    speed limit (planar_free made 40 s long: 0.5 rad/s x 40 s / (3 cells x 6 deg) -> 64 steps); --steps is kept."""
+    text = (SCENARIOS / "planar_free.toml").read_text().replace("duration = 5.0", "duration = 40.0")
+    assert text.count("duration = 40.0") == 2
+    scenario = tmp_path / "long.toml"
+    scenario.write_text(text)
+    assert main(["reach-map", str(scenario), "--resolution", "6", "--json"]) == 0
+    grid = json.loads(capsys.readouterr().out)["grid"]
+    assert grid["steps"] == 64 and grid["resolution_deg"] == 6
+    assert min(grid["gene_speed_deg_s"]) >= 0.5 * np.degrees(1.0)
+    assert main(["reach-map", str(scenario), "--resolution", "6", "--steps", "20", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["grid"]["steps"] == 20
+
+
 def test_cli_reach_map_spatial_robot(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["reach-map", str(SCENARIOS / "panda_crossing.toml")]) == 2
     err = capsys.readouterr().err

@@ -10,9 +10,11 @@ from typing import Any
 
 import numpy as np
 
+from previewctl.control.oracle import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability.grid import fast_enough
 from previewctl.sim.scenario import load_scenario
 
 
@@ -34,8 +36,11 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     parser.add_argument("--resolution", type=float, default=defaults.resolution_deg,
                         help=f"gene grid step [deg] (default {defaults.resolution_deg:g})")
-    parser.add_argument("--steps", type=int, default=defaults.steps,
-                        help=f"time steps over the scenario's duration (default {defaults.steps})")
+    parser.add_argument("--steps", type=int, default=None,
+                        help=f"time steps over the scenario's duration (default: at least {defaults.steps}, and as "
+                        f"many more as let a gene move at {ORACLE_GENE_SPEED:.0%} of its joint speed limit, with the "
+                        "grid coarsened (2x, 4x, ...) where that many steps would not fit the memory budget: the "
+                        "oracle's model)")
     parser.add_argument("--max-step-cells", type=int, default=defaults.max_step_cells,
                         help="most grid cells a gene may move per step; the gene speed bound is this x resolution / "
                         f"step, or the joint limit if lower (default {defaults.max_step_cells})")
@@ -59,10 +64,15 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
     robot = scenario.robot
     if robot.planar is None:
         raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
-    options = ReachOptions(resolution_deg=args.resolution, steps=args.steps, max_step_cells=args.max_step_cells,
+    steps = ReachOptions().steps if args.steps is None else args.steps
+    options = ReachOptions(resolution_deg=args.resolution, steps=steps, max_step_cells=args.max_step_cells,
                            s_min=args.s_min, velocity_scale=args.velocity_scale, start_families=args.start_families)
+    duration = scenario.timing.duration
+    # by default, the oracle's steps, unless the asked grid is too fine even for 50 (then the budget error below)
+    if args.steps is None and fast_enough(robot, options, duration, 0.0).resolution_deg == options.resolution_deg:
+        options = fast_enough(robot, options, duration, ORACLE_GENE_SPEED)
     evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
-    result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, scenario.timing.duration, options)
+    result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, duration, options)
     summary: dict[str, Any] = {"scenario": scenario.name, "robot": robot.name,
                                "duration": scenario.timing.duration, **result.summary()}
     written: list[str] = []
@@ -81,7 +91,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
-    _print(summary, result, written)
+    _print(summary, result, written, asked_resolution=args.resolution)
     return 0
 
 
@@ -92,7 +102,7 @@ def save_motion(result: ReachResult, path: Path) -> Path:
     return path
 
 
-def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> None:
+def _print(summary: dict[str, Any], result: ReachResult, written: list[str], *, asked_resolution: float) -> None:
     grid = summary["grid"]
     shape = " x ".join(f"{n} ({lo:g}..{hi:g})" for lo, hi, n in grid["gene_axes_deg"]) or "1"
     steps_deg = ", ".join("-" if v is None else f"{v:.3g}" for v in grid["joint_step_deg"])
@@ -134,6 +144,10 @@ def _print(summary: dict[str, Any], result: ReachResult, written: list[str]) -> 
         rows.append(("note", f"genes may move only {slow[0][0]:.3g} deg/s in this model (joint limit "
                              f"{slow[0][1]:.3g} deg/s): a 'no' or a low best min S can be the model's; raise "
                              "--steps or --max-step-cells to check"))
+    if grid["resolution_deg"] != asked_resolution:
+        rows.append(("note", f"the grid is {grid['resolution_deg']:g} deg, not {asked_resolution:g}: with "
+                             f"{grid['steps']} steps (for the genes' speed) the finer grid would not fit the memory "
+                             "budget; give --steps to keep the resolution"))
     for label, value in rows:
         print(f"{label:<18}{value}")
     end_label = "end families" if result.exists else f"families at the dead end t = {result.dead_end:g} s"
