@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -636,6 +637,26 @@ def test_horizon_plans_only_over_its_window_every_half_preview_time(plan_window:
         q = integrate(scenario.robot, q, qdot, dt)
     assert list(plans) == pytest.approx([0.0, 0.5, 1.0, 1.5])
     assert [end - start for start, end in plans.items()] == pytest.approx([window] * 4)
+
+
+def test_horizon_with_a_plan_latency_follows_each_plan_from_its_arrival() -> None:
+    """plan_latency = 0.5 s (the replan period): the first plan (t = 0) is followed at once, the plan made at
+    t = 0.5 s only from 1.0 s on, and so on; a latency longer than the replan period is refused."""
+    scenario = generate("planar4", 1, 0).scenario()
+    params = dataclasses.replace(scenario.controller.params, plan_latency=0.5)
+    ctrl = make_controller(scenario, name="horizon", params=params)
+    q, dt = np.array(scenario.q0), 0.01
+    for k in range(151):
+        t = k * dt
+        qdot = ctrl.step(q, t, dt)
+        law = ctrl.law  # type: ignore[attr-defined]
+        made = 0.5 * math.floor(t / 0.5 + 1e-9)  # the last plan made
+        followed = max(0.0, made - 0.5)
+        assert float(law.motion.times[0]) == pytest.approx(followed), t
+        assert float(law.planned.times[0]) == pytest.approx(made), t
+        q = integrate(scenario.robot, q, qdot, dt)
+    with pytest.raises(ConfigurationError, match=r"plan latency of 0\.6 s is longer than the replan period 0\.5 s"):
+        make_controller(scenario, name="horizon", params=dataclasses.replace(params, plan_latency=0.6))
 
 
 def test_horizon_finishes_a_bench_scene_where_the_qp_baseline_is_trapped() -> None:

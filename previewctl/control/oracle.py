@@ -88,10 +88,20 @@ class OracleController:
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
         window: ``horizon`` mode: how far ahead [s] each plan looks (``None``: the oracle, the whole rest).
         replan_period: ``horizon`` mode: time between plans [s].
+        latency: ``horizon`` mode: how long [s] a plan takes to arrive (a planner beside the control loop): a
+            plan made from the state at ``t`` is followed from ``t + latency`` on, the previous one until then.
+            The first plan is made before the run starts and followed at once. At most ``replan_period``
+            (one plan at a time); 0: each plan is followed in the cycle that makes it.
+
+    Attributes:
+        motion, result: the plan being followed, and its DP result (``None`` for a plan with nothing left to
+            track, or one given as a bare motion).
+        planned: the DP result of the last plan made, which may not be followed yet.
 
     Raises:
         PlanarOnlyError: a spatial arm.
-        ConfigurationError: a negative or non-finite lookahead, window or replan period.
+        ConfigurationError: a negative or non-finite lookahead, window, replan period or latency, or a latency
+            longer than the replan period.
     """
 
     def __init__(
@@ -105,12 +115,13 @@ class OracleController:
         lookahead: float = 0.1,
         window: float | None = None,
         replan_period: float = 0.5,
+        latency: float = 0.0,
     ) -> None:
         self.name = "oracle" if window is None else "horizon"
         if robot.planar is None:
             raise PlanarOnlyError(f"{self.name}: planar arms only (robot {robot.name!r} is spatial); the reachability "
                                   f"DP it follows needs the planar redundancy grid")
-        times = {"lookahead": (lookahead, True), "replan period": (replan_period, False)}
+        times = {"lookahead": (lookahead, True), "replan period": (replan_period, False), "latency": (latency, True)}
         if window is not None:
             times["window"] = (window, False)
         for label, (value, zero_ok) in times.items():
@@ -118,14 +129,21 @@ class OracleController:
             if not finite or value < 0 or (value == 0 and not zero_ok):
                 bound = ">= 0" if zero_ok else "> 0"
                 raise ConfigurationError(f"{self.name} {label} must be a finite number {bound} [s], got {value!r}")
+        if latency > replan_period:
+            raise ConfigurationError(f"{self.name}: a plan latency of {latency:g} s is longer than the replan period "
+                                     f"{replan_period:g} s; the planner makes one plan at a time, so the latency "
+                                     "must be at most the period")
         self.robot, self.params, self.evaluator = robot, params, evaluator
         self.options = options or (ORACLE_OPTIONS if window is None else HORIZON_OPTIONS)
         self.lookahead = float(lookahead)
         self.window = None if window is None else float(window)
         self.replan_period = float(replan_period)
+        self.latency = float(latency)
         self._next_plan = -math.inf
         self.result: ReachResult | None = plan if isinstance(plan, ReachResult) else None
         self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
+        self.planned: ReachResult | None = self.result
+        self._pending: tuple[float, ReachMotion, ReachResult | None] | None = None  # (from when [s], motion, result)
         self._gain = gain_vector(params.gain, robot.nv, "gain")
 
     @classmethod
@@ -134,7 +152,7 @@ class OracleController:
         the future, ``p`` the number of preview weights) and ``params.replan_period`` (default ``t̃ / 2``)."""
         replan = params.replan_period if params.replan_period is not None else params.preview_time / 2
         window = params.plan_window if params.plan_window is not None else params.preview_time * len(params.weights)
-        return cls(robot, params, evaluator, window=window, replan_period=replan)
+        return cls(robot, params, evaluator, window=window, replan_period=replan, latency=params.plan_latency)
 
     def plan(self, t: float, q: Array, state: ControlState, goals: Sequence[Goals] = ()) -> ReachMotion:
         """Make the plan from configuration ``q`` at time ``t`` [s] over the rest of ``state.path`` (the oracle), or
@@ -145,11 +163,10 @@ class OracleController:
         if self.window is not None:
             horizon = min(horizon, self.window)
         if horizon <= 0:  # nothing left to track: hold q (no DP result, so no goal of an earlier plan either)
-            self.result = None
-            self.motion = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
-                                      branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
-                                      min_S=float("nan"), total_S=0.0)
-            return self.motion
+            hold = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
+                               branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
+                               min_S=float("nan"), total_S=0.0)
+            return self._made(t, hold, None)
         options = self.options
         if self.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
@@ -160,10 +177,24 @@ class OracleController:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
             if fit < options.steps:
                 options = replace(options, steps=max(1, fit))
-        self.result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t,
-                                      goals=goals)
-        self.motion = self.result.motion
-        return self.motion
+        result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
+        return self._made(t, result.motion, result)
+
+    def _made(self, t: float, motion: ReachMotion, result: ReachResult | None) -> ReachMotion:
+        """A plan made at ``t`` [s]: followed from now on, or from ``t + latency`` once there is one to follow."""
+        self._arrive(t)
+        self.planned = result
+        if self.latency > 0 and self.motion is not None:
+            self._pending = (t + self.latency, motion, result)
+        else:
+            self.motion, self.result, self._pending = motion, result, None
+        return motion
+
+    def _arrive(self, t: float) -> None:
+        """Follow the pending plan from ``t`` [s] on if it has arrived by then."""
+        if self._pending is not None and t >= self._pending[0] - 1e-9:
+            _, self.motion, self.result = self._pending
+            self._pending = None
 
     def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
         """Joint velocity [rad/s] for time ``t`` [s]: eq. 19 pulled toward the plan at ``t + lookahead``."""
@@ -179,6 +210,7 @@ class OracleController:
                values: Array | None = None) -> tuple[Array, ControlInfo]:
         """Eq. 19 pulled toward the current plan at ``t + lookahead``; ``targets``/``values`` (default: that
         point of the plan and its S) are what the log records as the imaginary arms."""
+        self._arrive(t)
         motion = self.motion
         if motion is None:
             raise ConfigurationError(f"{self.name}: follow() before any plan was made")

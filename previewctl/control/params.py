@@ -112,6 +112,9 @@ class ControllerParams(Checked):
             half the preview time.
         plan_window: ``horizon`` and planar ``reach``: how far ahead [s] each DP plan looks; ``None`` (the
             default): to the last preview time, ``previews · preview_time``.
+        plan_latency: ``horizon`` and planar ``reach``: how long [s] a DP plan takes to arrive, as for a planner
+            beside the control loop: a plan made from the state at ``t`` is followed from ``t + plan_latency``
+            (the first one at once); at most the replan period. 0 (the default): within the cycle.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
@@ -146,6 +149,7 @@ class ControllerParams(Checked):
     track_radius: Positive = 0.5
     replan_period: Positive | None = None
     plan_window: Positive | None = None
+    plan_latency: NonNegative = 0.0
     execution: ExecutionMode = "qp"
     task_weight: Positive = 1e4
     slack_weight: Positive = 1e6

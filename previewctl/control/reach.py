@@ -252,7 +252,7 @@ class ReachController:
         if planner.motion is None or planner.due(t):
             settled = self._frames >= self.params.settle_frames  # before: the peaks are not worth heading for
             planner.plan(t, q, state, goals=self._goals() if settled else ())
-            pick = None if planner.result is None else planner.result.goal
+            pick = None if planner.planned is None else planner.planned.goal
             if pick is None:
                 self._goal = None
             else:
