@@ -73,8 +73,8 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
         options = fast_enough(robot, options, duration, ORACLE_GENE_SPEED)
     evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
     result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, duration, options)
-    summary: dict[str, Any] = {"scenario": scenario.name, "robot": robot.name,
-                               "duration": scenario.timing.duration, **result.summary()}
+    summary: dict[str, Any] = {"scenario": scenario.name, "robot": robot.name, "duration": duration,
+                               **result.summary()}
     written: list[str] = []
     if args.out:
         from previewctl.viz.reach import plot_reach_maps, plot_reach_motion

@@ -79,8 +79,8 @@ class ReachController:
     ``[t, t + plan_window]`` (default ``p t̃``) with the imaginary arms' positive peaks as goals
     (:mod:`~previewctl.search.reachability.goals`): the goal is the best peak that some collision-free motion
     reaches, and can go on from to the window's end, at the latest preview time that has one (a peak near the
-    last goal gets the ``hysteresis`` bonus),
-    and the arm follows the DP's best motion to it as ``horizon`` follows its plan. With no peak reached, it
+    last goal gets the ``hysteresis`` bonus), and the arm follows the DP's best motion to it as ``horizon``
+    follows its plan (from ``plan_latency`` after the plan was made, if set). With no peak reached, it
     follows the DP's best motion over the window (``horizon``'s plan); so do the plans made before the searches
     have run ``settle_frames`` generations (their peaks are not worth heading for yet). The GA runs one generation per
     camera frame; only the plans are periodic. The straight sweeps remain the routes of the paper-literal mode
