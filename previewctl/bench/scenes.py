@@ -77,8 +77,9 @@ _PLANAR_CONTROLLER = {"feedback_gain": 5.0, "plan_window": 4.5}
 """``plan_window``: the DP of ``horizon`` and ``reach`` looks 4.5 s ahead, not only to the last preview time (3 s);
 chosen on the held-out scenes (scene seed 1: ``reach`` 87 -> 97 %, ``horizon`` 90 -> 97 % at 1 mm; 6 s gave
 the same, at a higher cost), before the reported ones were run. Later fresh scenes favour 6 s (seeds 2 and 3:
-``reach`` 100 % and 93 % against 93 % and 83 %; 90 % and 80 % with 3 s), but its plans cost 1.7x the CPU (p95 0.93 s, above the 0.5 s
-replan period) and the all-controller sweep would pass its 20 minutes; the README gives both."""
+``reach`` 100 % and 93 % against 93 % and 83 %; 90 % and 80 % with 3 s), but its plans cost 1.7x the CPU
+(p95 0.93 s, above the 0.5 s replan period) and the all-controller sweep would pass its 20 minutes; the README
+gives both."""
 
 PROFILES: dict[str, Profile] = {
     "planar4": Profile(q0_center=(0.0, 0.0, 0.0, 0.0), q0_spread=(math.pi, 2.5, 2.5, 2.5), segments=2,
