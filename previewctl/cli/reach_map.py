@@ -13,8 +13,9 @@ import numpy as np
 from previewctl.control.oracle import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
+from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
-from previewctl.search.reachability.grid import fast_enough
+from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_nodes
 from previewctl.sim.scenario import load_scenario
 
 
@@ -69,7 +70,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
                            s_min=args.s_min, velocity_scale=args.velocity_scale, start_families=args.start_families)
     duration = scenario.timing.duration
     # by default, the oracle's steps, unless the asked grid is too fine even for 50 (then the budget error below)
-    if args.steps is None and fast_enough(robot, options, duration, 0.0).resolution_deg == options.resolution_deg:
+    if args.steps is None and grid_nodes(PlanarRedundancy(robot), options) <= MAX_GRID_NODES:
         options = fast_enough(robot, options, duration, ORACLE_GENE_SPEED)
     evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
     result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, duration, options)

@@ -87,7 +87,7 @@ def grid_model(robot: Robot, red: PlanarRedundancy, opts: ReachOptions, dt: floa
     delta, r = _joint_steps(robot, opts, dt, g)
     axes, periodic = gene_axes(red, h)
     shape = tuple(len(a) for a in axes)
-    total = int(np.prod(shape)) * int(red.branches) * (opts.steps + 1)
+    total = grid_nodes(red, opts)
     if total > MAX_GRID_NODES:
         raise ConfigurationError(
             f"resolution_deg = {opts.resolution_deg:g} and steps = {opts.steps} make {total:,} grid nodes "
@@ -180,12 +180,17 @@ def fast_enough(robot: Robot, opts: ReachOptions, duration: float, share: float)
     speed = float(np.max(limits[np.isfinite(limits)], initial=0.0))
     resolution = opts.resolution_deg
     while True:
-        h = math.radians(resolution)
-        steps = max(opts.steps, math.ceil(duration * speed / (opts.max_step_cells * h) - 1e-9))
-        cells = int(np.prod([len(axis) for axis in gene_axes(red, h)[0]]))
-        if cells * int(red.branches) * (steps + 1) <= MAX_GRID_NODES or 2 * resolution > 90:
-            return replace(opts, resolution_deg=resolution, steps=steps)
+        steps = max(opts.steps, math.ceil(duration * speed / (opts.max_step_cells * math.radians(resolution)) - 1e-9))
+        candidate = replace(opts, resolution_deg=resolution, steps=steps)
+        if grid_nodes(red, candidate) <= MAX_GRID_NODES or 2 * resolution > 90:
+            return candidate
         resolution *= 2
+
+
+def grid_nodes(red: PlanarRedundancy, opts: ReachOptions) -> int:
+    """The nodes (cells x branches x layers) of the grid of ``opts`` (at most :data:`MAX_GRID_NODES` may be built)."""
+    cells = int(np.prod([len(axis) for axis in gene_axes(red, math.radians(opts.resolution_deg))[0]]))
+    return cells * int(red.branches) * (opts.steps + 1)
 
 
 def gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolArray]:
