@@ -211,11 +211,14 @@ def gene_axes(red: PlanarRedundancy, h: float) -> tuple[tuple[Array, ...], BoolA
 
 
 def targets(model: GridModel, gene_index: IntArray, offset: IntArray) -> tuple[IntArray, BoolArray]:
-    """Flat gene index of ``gene_index + offset`` ``(m,)`` and whether it lies on the grid."""
-    flat = np.zeros(gene_index.shape[0], dtype=np.int64)
-    ok = np.ones(gene_index.shape[0], dtype=bool)
+    """Flat gene index of ``gene_index + offset`` and whether it lies on the grid: ``gene_index`` ``(m, g)``
+    with one offset ``(g,)`` gives ``(m,)``, with ``K`` offsets ``(K, g)`` it gives ``(K, m)``."""
+    offset = np.asarray(offset, dtype=np.int64)
+    shape = offset.shape[:-1] + gene_index.shape[:1]
+    flat = np.zeros(shape, dtype=np.int64)
+    ok = np.ones(shape, dtype=bool)
     for a, size in enumerate(model.shape):
-        index = gene_index[:, a] + offset[a]
+        index = gene_index[:, a] + offset[..., a, None]
         if model.periodic[a]:
             index %= size
         else:

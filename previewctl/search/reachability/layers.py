@@ -109,10 +109,8 @@ def dilate(model: GridModel, layer: Layer, rows: IntArray) -> IntArray:
     """Flat physical indices (both branches) within one step's gene offsets of ``layer``'s ``rows``."""
     C = model.cells
     mask = np.zeros(C, dtype=bool)
-    gene_index = layer.gene_index[rows]
-    for offset in model.offsets:
-        flat, ok = targets(model, gene_index, offset)
-        mask[flat[ok]] = True
+    flat, ok = targets(model, layer.gene_index[rows], model.offsets)
+    mask[flat[ok]] = True
     genes = np.flatnonzero(mask)
     return np.concatenate([genes, genes + C])
 

@@ -120,12 +120,12 @@ class Edges:
 
 
 def _expand(model: GridModel, src: Layer, dst: Layer, rows: IntArray, d_rows: IntArray, shift: NDArray[np.int8],
-            src_states: BoolArray | None) -> list[tuple[NDArray[np.int32], NDArray[np.int32]]]:
-    """Physical steps ``rows -> d_rows`` (unique on both sides) as state edges, one group per source
-    representative: ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state
-    in ``src_states`` when given)."""
+            offset: IntArray, src_states: BoolArray | None) -> tuple[IntArray, IntArray, IntArray]:
+    """Physical steps ``rows -> d_rows`` by gene offset number ``offset`` as state edges
+    ``(row, m) -> (d_row, m + shift)``, both representatives valid (and the source state in ``src_states`` when
+    given), with their group ``offset · M + m``: within a group no source and no destination repeats."""
     M = model.M
-    out = []
+    src_out, dst_out, group_out = [], [], []
     for m in range(M):
         m_dst = m + shift.astype(np.int64)
         ok = src.valid[rows, m] & (m_dst >= 0) & (m_dst < M)
@@ -133,14 +133,16 @@ def _expand(model: GridModel, src: Layer, dst: Layer, rows: IntArray, d_rows: In
         s_state = rows * M + m
         if src_states is not None:
             ok &= src_states[s_state]
-        out.append(((s_state[ok]).astype(np.int32), (d_rows[ok] * M + m_dst[ok]).astype(np.int32)))
-    return out
+        src_out.append(s_state[ok])
+        dst_out.append(d_rows[ok] * M + m_dst[ok])
+        group_out.append(offset[ok] * M + m)
+    return np.concatenate(src_out), np.concatenate(dst_out), np.concatenate(group_out)
 
 
 def grid_edges(model: GridModel, src: Layer, dst: Layer, travel: float, src_states: BoolArray | None) -> Edges:
     """Allowed transitions from the states of ``src`` (those in ``src_states``, or all) to those of ``dst``: one
     group per gene offset (same branch) and per gene offset and elbow switch (sources near the stretched
-    wrist), split by source representative."""
+    wrist), split by source representative. Every offset of a kind is checked at once."""
     g = model.periodic.size
     C = model.cells
     row_of = lut(dst, C)
@@ -150,26 +152,29 @@ def grid_edges(model: GridModel, src: Layer, dst: Layer, travel: float, src_stat
     sources = [(every, src.branch[every].astype(np.int64) * C)]
     if near.size:
         sources.append((near, (1 - src.branch[near].astype(np.int64)) * C))
-    groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]] = []
+    kinds = []
     for candidates, base in sources:
-        gene_index = src.gene_index[candidates]
-        for k, offset in enumerate(model.offsets):
-            flat, on_grid = targets(model, gene_index, offset)
-            d_rows = row_of[base + flat].astype(np.int64)
-            hit = (d_rows >= 0) & on_grid
-            rows, d_rows = candidates[hit], d_rows[hit]
-            sweep = np.broadcast_to(model.offset_sweep[k], (rows.size, model.rho.shape[1]))
-            ok, shift = _step_ok(model, dst, d_rows, sweep, src.q1[rows], src.beta[rows], src.d_t[:, rows], travel)
-            groups += _expand(model, src, dst, rows[ok], d_rows[ok], shift[ok], src_states)
-    return _pack(groups)
+        flat, on_grid = targets(model, src.gene_index[candidates], model.offsets)  # (K, m)
+        d_rows = row_of[base + flat].astype(np.int64)
+        offset, column = np.nonzero((d_rows >= 0) & on_grid)
+        rows, d_rows = candidates[column], d_rows[offset, column]
+        ok, shift = _step_ok(model, dst, d_rows, model.offset_sweep[offset], src.q1[rows], src.beta[rows],
+                             src.d_t[:, rows], travel)
+        kinds.append(_expand(model, src, dst, rows[ok], d_rows[ok], shift[ok], offset[ok], src_states))
+    return _pack(kinds, len(model.offsets) * model.M)
 
 
-def _pack(groups: list[tuple[NDArray[np.int32], NDArray[np.int32]]]) -> Edges:
-    """The ``(src, dst)`` groups as one :class:`Edges` (empty groups kept: they cost nothing)."""
-    if not groups:
+def _pack(kinds: list[tuple[IntArray, IntArray, IntArray]], groups: int) -> Edges:
+    """The edges of each kind (``(src, dst, group)``, ``groups`` groups per kind) as one :class:`Edges`, ordered by
+    kind, then group, then as given (empty groups kept: they cost nothing)."""
+    if not kinds:
         return Edges(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64))
-    sizes = np.array([0] + [s.size for s, _ in groups], dtype=np.int64)
-    return Edges(np.concatenate([s for s, _ in groups]), np.concatenate([d for _, d in groups]), np.cumsum(sizes))
+    group = np.concatenate([g + i * groups for i, (_, _, g) in enumerate(kinds)])
+    order = np.argsort(group, kind="stable")
+    sizes = np.bincount(group, minlength=len(kinds) * groups)
+    return Edges(np.concatenate([s for s, _, _ in kinds])[order].astype(np.int32),
+                 np.concatenate([d for _, d, _ in kinds])[order].astype(np.int32),
+                 np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64))
 
 
 def start_states(model: GridModel, start: Start, d0: Array, dst: Layer, travel: float) -> IntArray:
