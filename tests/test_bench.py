@@ -43,12 +43,27 @@ def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(
     scenario = scene.scenario()
     holds, sentence = witness(scenario, SHORT)
     assert holds and "a collision-free tracking motion exists" in sentence
+    assert "the oracle followed it" in sentence
+    oracle = simulate(scenario, "oracle")  # what the witness ran: the scene's own (QP) execution
+    assert oracle.collision_index is None and float(np.max(oracle.hand_error)) < SHORT.witness_tolerance
     # the first obstacle is aimed at the arm's plain-tracking motion: plain tracking (the paper's eq. 19, no
     # damper) is hit, by a guarded link
     run = simulate(pseudoinverse(scenario), "none")
     assert run.collision_index is not None
     assert 0 < run.t[run.collision_index] <= 0.65 * 3.0 + 0.01
     assert np.isfinite(run.link_distances).all()
+
+
+def test_planar_witness_rejects_a_motion_the_oracle_does_not_follow_within_the_tolerance() -> None:
+    """The DP's "yes" is not enough: the oracle's run must keep the hand within the witness's tolerance."""
+    scenario = generate("planar4", 1, 0, SHORT).scenario()
+    error = 1e3 * float(np.max(simulate(scenario, "oracle").hand_error))
+    holds, sentence = witness(scenario, dataclasses.replace(SHORT, witness_tolerance=0.5e-3 * error / 1e3))
+    assert not holds
+    assert "a collision-free tracking motion exists" in sentence
+    assert f"but the oracle following it leaves the path by {error:.2f} mm" in sentence
+    assert witness(scenario, dataclasses.replace(SHORT, witness_follow=False)) == (
+        True, sentence.split(", but")[0])
 
 
 def test_planar_witness_rejects_a_disc_that_runs_over_the_base() -> None:
@@ -79,6 +94,8 @@ def test_generator_errors_name_the_bad_value() -> None:
         generate("planar4", -1)
     with pytest.raises(ParameterError, match="duration must be at least two control periods"):
         SceneSettings(duration=0.01)
+    with pytest.raises(ParameterError, match="witness_tolerance must be > 0, got 0"):
+        SceneSettings(witness_tolerance=0)
 
 
 # ------------------------------------------------------------------------------- sweep, resume

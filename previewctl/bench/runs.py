@@ -27,7 +27,7 @@ from previewctl.sim.scenario import Scenario, scenario_from_dict
 KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings")
 """The fields of a run's key: a result line with the same values is the same run."""
 
-GENERATOR_VERSION = 1
+GENERATOR_VERSION = 2
 """Bumped when :mod:`previewctl.bench.scenes` draws differently: old results no longer match."""
 
 

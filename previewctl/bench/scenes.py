@@ -113,6 +113,9 @@ class SceneSettings:
             a coarser grid only finds fewer motions, so it rejects more).
         witness_period: time between witness samples [s] (DP step for planar; check period for spatial arms).
         witness_samples: spatial witness: Halton samples of the redundancy space per check.
+        witness_follow: planar witness: the ``oracle`` must also follow the DP's verdict in a run (the scene's
+            settings and execution, exact check) without collision and with the hand within ``witness_tolerance``.
+        witness_tolerance: the largest hand error [m] of that run.
     """
 
     duration: float | None = None
@@ -121,6 +124,8 @@ class SceneSettings:
     witness_resolution_deg: float = 4.0
     witness_period: float = 0.25
     witness_samples: int = 256
+    witness_follow: bool = True
+    witness_tolerance: float = 1e-3
 
     def __post_init__(self) -> None:
         """Check the values.
@@ -128,7 +133,7 @@ class SceneSettings:
         Raises:
             ParameterError: a non-positive duration, period or step, or fewer than one draw or sample.
         """
-        for name in ("dt", "witness_resolution_deg", "witness_period"):
+        for name in ("dt", "witness_resolution_deg", "witness_period", "witness_tolerance"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
         if self.duration is not None and not (math.isfinite(self.duration) and self.duration >= 2 * self.dt):
