@@ -126,6 +126,8 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert logged["collision_free"] == (direct.collision_index is None)
     report = (out / "report.md").read_text()
     assert "| none | pseudoinverse | 2 |" in report and "| gradient | pseudoinverse | 2 |" in report
+    assert "rejected by the solvability witness on the way (reachability DP on a 4 deg grid, 12 steps, then " \
+           "followed by the oracle)" in report
     assert (out / "success.png").read_bytes().startswith(b"\x89PNG")
     # kept: per controller and execution the first failure and the first success, each with its replay
     kept = sorted(p.name for p in (out / "runs").iterdir())

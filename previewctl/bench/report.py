@@ -117,8 +117,10 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
         drawn = [s for s in scenes if s["robot"] == robot]
         if drawn:
             rejected = sum(s["rejected"] for s in drawn)
+            how = re.split("[:(]", drawn[0]["witness"])[0].strip()
+            how += ", then followed by the oracle" if "the oracle followed it" in drawn[0]["witness"] else ""
             lines += [f"{robot}: {len(drawn)} scenes generated, {rejected} draws rejected by the solvability "
-                      f"witness on the way ({re.split('[:(]', drawn[0]['witness'])[0].strip()}).", ""]
+                      f"witness on the way ({how}).", ""]
     lines += ["## Success rates", ""]
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
