@@ -15,6 +15,7 @@ from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.scenes import SceneSettings, generate
+from previewctl.bench.sweep import WORKER_MALLOC, dask_client
 from previewctl.bench.witness import witness
 from previewctl.cli.main import main
 from previewctl.errors import ParameterError, UnknownNameError
@@ -149,6 +150,16 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert len(again) == 6 and again[:4] == records
     assert sorted(r["scene"] for r in again[4:]) == [0, 1] and {r["controller"] for r in again[4:]} == {"single"}
     assert len(read_records(out / "scenes.jsonl")) == 2  # the resume reused the stored scenes
+
+
+def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> None:
+    """The DP's large arrays must not be handed back to the system at every step (see WORKER_MALLOC)."""
+    import os
+
+    with dask_client(workers=1) as client:
+        environ = next(iter(client.run(lambda: dict(os.environ)).values()))
+    assert {k: environ[k] for k in WORKER_MALLOC} == {k: str(v) for k, v in WORKER_MALLOC.items()}
+    assert environ["OPENBLAS_NUM_THREADS"] == "1"  # Dask's own pre-spawn settings are kept
 
 
 @pytest.mark.parametrize(("argv", "message"), [
