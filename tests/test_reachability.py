@@ -29,7 +29,7 @@ from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
-from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough
+from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_model, targets
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -535,6 +535,27 @@ def test_time_step_too_short_for_the_grid(planar4: Robot) -> None:
     q0 = start_on_path(planar4, path, (0.2, 0.9), 1)
     with pytest.raises(ConfigurationError, match=r"time step 0\.01 s lets joint 1 move only 0\.573 deg.*fewer steps"):
         reach_over_time(planar4, Evaluator(planar4), path, q0, 1.0, ReachOptions(resolution_deg=2.0, steps=100))
+
+
+def test_all_gene_offsets_at_once_equal_one_offset_at_a_time(planar4: Robot) -> None:
+    """``targets`` over ``K`` offsets, as the vectorised transitions use it, is the ``K`` single-offset calls."""
+    red = PlanarRedundancy(planar4)
+    model, _ = grid_model(planar4, red, ReachOptions(resolution_deg=10.0), 1.0, np.zeros(4))
+    wrapped = dataclasses.replace(model, periodic=np.array([True, False]))  # one periodic gene axis as well
+    rng = np.random.default_rng(3)
+    for grid in (model, wrapped):
+        gene_index = np.stack([rng.integers(0, n, 200) for n in grid.shape], axis=1)
+        gene_index[:2] = [[grid.shape[0] - 1, 0], [0, grid.shape[1] - 1]]  # at the edges
+        flat, ok = targets(grid, gene_index, grid.offsets)
+        assert flat.shape == ok.shape == (len(grid.offsets), 200)
+        for k, offset in enumerate(grid.offsets):
+            one_flat, one_ok = targets(grid, gene_index, offset)
+            np.testing.assert_array_equal(flat[k], one_flat)
+            np.testing.assert_array_equal(ok[k], one_ok)
+    step = np.array([1, 0])  # off the top edge of gene 1: lost on a bounded axis, wrapped to 0 on a periodic one
+    top = np.array([[model.shape[0] - 1, 5]])
+    assert not targets(model, top, step)[1][0]
+    assert targets(wrapped, top, step)[1][0] and targets(wrapped, top, step)[0][0] == 5 * model.strides[1]
 
 
 # -------------------------------------------------------------------------------- CLI, oracle

@@ -167,8 +167,6 @@ def grid_edges(model: GridModel, src: Layer, dst: Layer, travel: float, src_stat
 def _pack(kinds: list[tuple[IntArray, IntArray, IntArray]], groups: int) -> Edges:
     """The edges of each kind (``(src, dst, group)``, ``groups`` groups per kind) as one :class:`Edges`, ordered by
     kind, then group, then as given (empty groups kept: they cost nothing)."""
-    if not kinds:
-        return Edges(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64))
     group = np.concatenate([g + i * groups for i, (_, _, g) in enumerate(kinds)])
     order = np.argsort(group, kind="stable")
     sizes = np.bincount(group, minlength=len(kinds) * groups)
