@@ -26,7 +26,7 @@ a plan made before. Planar arms of 2-4 joints only (the DP's grid).
 ``horizon`` is the same machinery made causal: the paper's "future reachability evaluation" done by
 the DP instead of by imaginary arms. It reads the future only over a window of ``plan_window`` [s]
 (default: as far as the preview controllers do, to the last preview time ``t + p t̃``; the bench's planar
-scenes set 4.5 s): every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration
+scenes set 6 s): every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration
 over ``[t, t + plan_window]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at
 most 24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
 the window and knows nothing beyond it.
