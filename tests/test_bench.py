@@ -10,12 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from distributed import LocalCluster
+from helpers import planar_doc
 
 from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.scenes import SceneSettings, generate
-from previewctl.bench.sweep import WORKER_MALLOC, dask_client
+from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import witness
 from previewctl.cli.main import main
 from previewctl.errors import ParameterError, UnknownNameError
@@ -152,6 +153,27 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert len(read_records(out / "scenes.jsonl")) == 2  # the resume reused the stored scenes
 
 
+def test_the_matrix_holds_each_distinct_run_once() -> None:
+    sweep = Sweep(robots=("planar4", "panda"), scenes=2, controllers=("none", "qp", "multi", "oracle"))
+    runs = [(s.robot, s.scene, s.controller, s.execution) for s in sweep.runs()]
+    for robot in ("planar4", "panda"):
+        for scene in (0, 1):
+            expected = [("qp", "qp"), ("none", "pseudoinverse"), ("multi", "qp"), ("multi", "pseudoinverse")]
+            expected += [("oracle", "qp"), ("oracle", "pseudoinverse")] if robot == "planar4" else []
+            assert [(c, e) for r, s, c, e in runs if (r, s) == (robot, scene)] == expected
+    assert [(s.controller, s.execution) for s in Sweep(controllers=("qp",), executions=("pseudoinverse",)).runs()] \
+        == [("none", "pseudoinverse")] * 10
+
+
+def test_none_under_the_qp_is_the_qp_run() -> None:
+    """What lets the matrix run ``none`` under the QP once, as ``qp``: the two logs are identical."""
+    box = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0, 1.2, 0.0], "rpy": [0, 0, 0.3]}
+    scenario = scenario_from_dict(planar_doc(obstacles=[box], timing={"duration": 5.0}))
+    none, qp, pinv = simulate(scenario, "none"), simulate(scenario, "qp"), simulate(pseudoinverse(scenario), "none")
+    np.testing.assert_array_equal(none.q, qp.q)
+    assert none.collision_index is None and pinv.collision_index is not None  # the QP's dampers are at work
+
+
 def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> None:
     """The DP's large arrays must not be handed back to the system at every step (see WORKER_MALLOC)."""
     import os
@@ -189,9 +211,11 @@ def _record(scene: int, controller: str, ok: bool) -> dict[str, object]:
 def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path: Path) -> None:
     records = [_record(0, "qp", False), _record(0, "multi", True), _record(1, "qp", True),
                _record(1, "multi", False), _record(2, "qp", True), _record(2, "multi", True)]
+    records += [{**_record(scene, "multi", ok), "execution": "pseudoinverse"} for scene, ok in ((0, False), (2, False))]
     report, figure = write_report(records, [], tmp_path)
     text = report.read_text()
     assert "| planar4 | multi | qp | 0:0 | 1:0 |" in text
+    assert "| planar4 | multi | pseudoinverse | - | 2:0 |" in text  # against qp, which is always a QP
     assert "| multi | qp | 3 | 67% | 67% | 67% |" in text and "| qp | qp | 3 | 67% |" in text
     assert figure.read_bytes().startswith(b"\x89PNG")
 

@@ -45,7 +45,8 @@ class Sweep:
         robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
-            ``oracle`` and ``horizon`` only on planar4).
+            ``oracle`` and ``horizon`` only on planar4; ``none`` under the QP runs as ``qp``, ``qp`` under the
+            pseudo-inverse as ``none``).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
         seeds: controller seeds ``0 .. seeds - 1``.
         scene_seed: the seed the scenes are drawn with.
@@ -86,19 +87,21 @@ class Sweep:
             raise ParameterError(f"scene seed must be >= 0, got {self.scene_seed!r}")
 
     def runs(self) -> list[RunSpec]:
-        """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario)."""
-        controllers = dict.fromkeys(self.controllers or control_params.CONTROLLER_NAMES)
-        executions = dict.fromkeys(self.executions or control_params.EXECUTION_MODES)
+        """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
+
+        Each distinct run once (:func:`~previewctl.control.params.distinct_run`): ``none`` under the QP is the
+        ``qp`` run, and ``qp`` under the pseudo-inverse is the ``none`` run."""
+        pairs = dict.fromkeys(
+            control_params.distinct_run(name, execution)
+            for name in self.controllers or control_params.CONTROLLER_NAMES
+            for execution in self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
             for scene in range(self.scenes):
                 for seed in range(self.seeds):
-                    for name in controllers:
-                        if ONLY_ON.get(name, robot) != robot:
-                            continue
-                        specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                                  for execution in executions]
+                    specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
+                              for name, execution in pairs if ONLY_ON.get(name, robot) == robot]
         return specs
 
 

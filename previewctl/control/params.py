@@ -43,6 +43,19 @@ dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's 
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
+
+
+def distinct_run(name: str, execution: str) -> tuple[str, str]:
+    """The run that controller ``name`` under ``execution`` is, as ``(controller, execution)``: ``none`` under the
+    QP is the ``qp`` baseline (the QP layer with no null-space motion), and ``qp`` under the pseudo-inverse is
+    ``none`` (eq. 19 with no null-space motion). Any other pair is itself, so each distinct run has one name."""
+    if name == "none" and execution == "qp":
+        return "qp", "qp"
+    if name == "qp" and execution == "pseudoinverse":
+        return "none", "pseudoinverse"
+    return name, execution
+
+
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""
 

@@ -36,7 +36,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, PAPER_WEIGHTS, ControllerSpec
+from previewctl.control.params import (
+    CONTROLLER_NAMES,
+    EXECUTION_MODES,
+    PAPER_WEIGHTS,
+    ControllerSpec,
+    distinct_run,
+)
 from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_folder, atomic_write_bytes, check_output_folder
 from previewctl.sim.log import RunResult, save_run
@@ -59,14 +65,13 @@ PINV_SUFFIX = "-pinv"
 def paper_runs(controllers: Sequence[str], executions: Sequence[str] = EXECUTION_MODES) -> dict[str, tuple[str, str]]:
     """The runs of ``controllers`` × ``executions`` as ``{label: (controller, execution)}``, in order.
 
-    ``none`` under the QP is the ``qp`` baseline (labelled ``qp``), and ``qp`` under the pseudo-inverse is
-    ``none`` (labelled ``none-pinv``): each distinct run appears once.
+    Each distinct run appears once (:func:`~previewctl.control.params.distinct_run`): ``none`` under the QP is
+    labelled ``qp``, and ``qp`` under the pseudo-inverse ``none-pinv``.
     """
     runs: dict[str, tuple[str, str]] = {}
     for execution in executions:
         for name in controllers:
-            controller = {"none": "qp", "qp": "qp"}.get(name, name) if execution == "qp" else (
-                "none" if name == "qp" else name)
+            controller, _ = distinct_run(name, execution)
             label = controller if execution == "qp" else controller + PINV_SUFFIX
             runs.setdefault(label, (controller, execution))
     return runs
