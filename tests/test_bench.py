@@ -13,11 +13,14 @@ from distributed import LocalCluster
 from helpers import planar_doc
 
 from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
+from previewctl.bench.metrics import run_metrics
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
-from previewctl.bench.scenes import SceneSettings, generate
+from previewctl.bench.runs import RunSpec, settings_hash, simulate_spec
+from previewctl.bench.runs import run as bench_run
+from previewctl.bench.scenes import BenchScene, SceneSettings, generate
 from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
-from previewctl.bench.witness import witness
+from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main
 from previewctl.errors import ParameterError, UnknownNameError
 from previewctl.sim.loop import simulate
@@ -43,11 +46,27 @@ def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(
     assert generate("planar4", 2, 0, SHORT).document != scene.document
     assert generate("planar4", 1, 1, SHORT).document != scene.document
     scenario = scene.scenario()
-    holds, sentence = witness(scenario, SHORT)
-    assert holds and "a collision-free tracking motion exists" in sentence
-    assert "the oracle followed it" in sentence
+    found = witness(scenario, SHORT)
+    assert found.holds and "a collision-free tracking motion exists" in found.sentence
+    assert "the oracle followed it" in found.sentence
     oracle = simulate(scenario, "oracle")  # what the witness ran: the scene's own (QP) execution
     assert oracle.collision_index is None and float(np.max(oracle.hand_error)) < SHORT.witness_tolerance
+    # the witness's oracle run is the bench's oracle run under the QP: the sweep records it instead of running it
+    spec = RunSpec("planar4", 1, 0, "oracle", "qp", settings_hash("planar4", 0, SHORT))
+    timings = ("wall_time", "cpu_time", "cycle_time_median", "cycle_time_p95")
+    again = run_metrics(simulate_spec(spec, scene)[1])
+    assert scene.oracle_run is not None and found.oracle_run is not None
+    assert {k: v for k, v in scene.oracle_run.items() if k not in timings} == {
+        **{k: v for k, v in again.items() if k not in timings}, "execution": "qp", "seed": 0}
+    recorded = bench_run(spec, scene)
+    assert {k: recorded[k] for k in timings} == {k: scene.oracle_run[k] for k in timings}
+    assert recorded["scenario"] == scenario.name and recorded["controller"] == "oracle"
+    pinv = bench_run(dataclasses.replace(spec, execution="pseudoinverse"), scene)  # simulated: not the witness's
+    # scenes.jsonl keeps the run; a line written before it was kept reads without one
+    line = json.loads(json.dumps({**dataclasses.asdict(scene), "settings": spec.settings}))
+    assert dataclasses.asdict(BenchScene.from_record(line)) == json.loads(json.dumps(dataclasses.asdict(scene)))
+    assert BenchScene.from_record({k: v for k, v in line.items() if k != "oracle_run"}).oracle_run is None
+    assert pinv["execution"] == "pseudoinverse" and pinv["cpu_time"] != scene.oracle_run["cpu_time"]
     # the first obstacle is aimed at the arm's plain-tracking motion: plain tracking (the paper's eq. 19, no
     # damper) is hit, by a guarded link
     run = simulate(pseudoinverse(scenario), "none")
@@ -60,12 +79,12 @@ def test_planar_witness_rejects_a_motion_the_oracle_does_not_follow_within_the_t
     """The DP's "yes" is not enough: the oracle's run must keep the hand within the witness's tolerance."""
     scenario = generate("planar4", 1, 0, SHORT).scenario()
     error = 1e3 * float(np.max(simulate(scenario, "oracle").hand_error))
-    holds, sentence = witness(scenario, dataclasses.replace(SHORT, witness_tolerance=0.5e-3 * error / 1e3))
-    assert not holds
-    assert "a collision-free tracking motion exists" in sentence
-    assert f"but the oracle following it leaves the path by {error:.2f} mm" in sentence
-    assert witness(scenario, dataclasses.replace(SHORT, witness_follow=False)) == (
-        True, sentence.split(", but")[0])
+    found = witness(scenario, dataclasses.replace(SHORT, witness_tolerance=0.5e-3 * error / 1e3))
+    assert not found.holds
+    assert "a collision-free tracking motion exists" in found.sentence
+    assert f"but the oracle following it leaves the path by {error:.2f} mm" in found.sentence
+    assert witness(scenario, dataclasses.replace(SHORT, witness_follow=False)) == Witnessed(
+        True, found.sentence.split(", but")[0])
 
 
 def test_planar_witness_rejects_a_disc_that_runs_over_the_base() -> None:
@@ -74,9 +93,9 @@ def test_planar_witness_rejects_a_disc_that_runs_over_the_base() -> None:
            "path": {"waypoints": [[1.9069, 1.0417], [1.6069, 0.6417]], "duration": 3.0},
            "obstacles": [{"name": "disc", "shape": "cylinder", "radius": 0.3, "length": 0.4,
                           "motion": {"type": "constant_velocity", "position": [-1.5, 0.0], "velocity": [1.0, 0.0]}}]}
-    holds, sentence = witness(scenario_from_dict(doc), SHORT)
-    assert not holds
-    stuck = float(sentence.split("stuck by t = ")[1].split(" s")[0])
+    found = witness(scenario_from_dict(doc), SHORT)
+    assert not found.holds and found.oracle_run is None
+    stuck = float(found.sentence.split("stuck by t = ")[1].split(" s")[0])
     assert 1.0 <= stuck <= 1.5
 
 

@@ -19,6 +19,7 @@ The same ``(robot, index, seed, settings)`` always gives the same scene.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import math
@@ -154,6 +155,8 @@ class BenchScene:
         document: the scenario document (plain JSON values; :meth:`scenario` builds it).
         rejected: draws the witness rejected before this one.
         witness: what the witness found, one sentence.
+        oracle_run: the witness's ``oracle`` run (planar arms; see
+            :class:`~previewctl.bench.witness.Witnessed`), which the sweep records instead of running it again.
     """
 
     robot: str
@@ -162,10 +165,17 @@ class BenchScene:
     document: dict[str, Any]
     rejected: int
     witness: str
+    oracle_run: dict[str, Any] | None = None
 
     def scenario(self) -> Scenario:
         """The scenario, through the scenario files' validation."""
         return scenario_from_dict(self.document, source=self.document["name"])
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> BenchScene:
+        """The scene of a line of ``scenes.jsonl`` (its other keys ignored; a line from before ``oracle_run``
+        was recorded has none)."""
+        return cls(**{f.name: record[f.name] for f in dataclasses.fields(cls) if f.name in record})
 
 
 def profile(robot: str) -> Profile:
@@ -205,9 +215,9 @@ def generate(robot: str, index: int, seed: int = 0, settings: SceneSettings | No
     for draw in range(settings.max_draws):
         document = draw_document(arm, robot, prof, rng, settings, name=f"{robot}_{index:03d}_s{seed}")
         scenario = scenario_from_dict(document, source=document["name"])
-        holds, sentence = witness(scenario, settings)
-        if holds:
-            return BenchScene(robot, index, seed, document, draw, sentence)
+        found = witness(scenario, settings)
+        if found.holds:
+            return BenchScene(robot, index, seed, document, draw, found.sentence, found.oracle_run)
     raise ScenarioError(f"{robot} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
 
 

@@ -158,8 +158,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
         key = (spec.robot, spec.scene, spec.settings)
         if key not in scene_tasks:
             if key in known:
-                stored = BenchScene(**{f.name: known[key][f.name] for f in dataclasses.fields(BenchScene)})
-                scene_tasks[key] = client.scatter(stored)
+                scene_tasks[key] = client.scatter(BenchScene.from_record(known[key]))
             else:
                 scene_tasks[key] = client.submit(generate, spec.robot, spec.scene, spec.scene_seed, sweep.settings,
                                                  pure=False)
@@ -194,8 +193,7 @@ def keep_runs(out: Path, client: Any, failures: int, on_done: Callable[[], None]
         on_start(len(todo))
     futures = []
     for r in todo:
-        stored = scenes[(r["robot"], r["scene"], r["settings"])]
-        scene = BenchScene(**{f.name: stored[f.name] for f in dataclasses.fields(BenchScene)})
+        scene = BenchScene.from_record(scenes[(r["robot"], r["scene"], r["settings"])])
         spec = RunSpec(**{name: r[name] for name in fields})
         futures.append(client.submit(keep_run, spec, scene, str(out / RUNS_FOLDER / run_folder(r)), pure=False))
     from distributed import as_completed

@@ -18,6 +18,9 @@
 from __future__ import annotations
 
 import math
+import time
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -32,8 +35,26 @@ from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario
 
 
-def witness(scenario: Scenario, settings: SceneSettings) -> tuple[bool, str]:
-    """Whether the scene passes its witness, and what was found (one sentence)."""
+@dataclass(frozen=True)
+class Witnessed:
+    """What the witness found.
+
+    Attributes:
+        holds: whether the scene passes.
+        sentence: what was found, one sentence.
+        oracle_run: the planar witness's ``oracle`` run, when one was made: its
+            :func:`~previewctl.bench.metrics.run_metrics`, its ``execution`` and controller ``seed``, and its
+            ``wall_time`` and ``cpu_time`` [s]. It is the bench's own ``oracle`` run of the scene under that
+            execution and seed, so the sweep does not run it again.
+    """
+
+    holds: bool
+    sentence: str
+    oracle_run: dict[str, Any] | None = None
+
+
+def witness(scenario: Scenario, settings: SceneSettings) -> Witnessed:
+    """Whether the scene passes its witness, what was found, and the oracle run it made (planar arms)."""
     robot = scenario.robot
     evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
     duration = scenario.timing.duration
@@ -43,11 +64,11 @@ def witness(scenario: Scenario, settings: SceneSettings) -> tuple[bool, str]:
         result = reach_over_time(robot, evaluator, scenario.path, scenario.q0, duration, options)
         grid = f"reachability DP on a {settings.witness_resolution_deg:g} deg grid, {steps} steps"
         if not result.exists:
-            return False, f"{grid}: {result.verdict()}"
+            return Witnessed(False, f"{grid}: {result.verdict()}")
         found = f"{grid}: a collision-free tracking motion exists (best min S {result.best_min_S:.1f})"
-        return _followed(scenario, settings, found) if settings.witness_follow else (True, found)
+        return _followed(scenario, settings, found) if settings.witness_follow else Witnessed(True, found)
     if bool(evaluator(scenario.q0[None, :], 0.0).collision[0]):
-        return False, "q0 collides at t = 0"
+        return Witnessed(False, "q0 collides at t = 0")
     red = redundancy_map(robot)
     worst = math.inf
     for t in np.linspace(0.0, duration, steps + 1):
@@ -55,22 +76,27 @@ def witness(scenario: Scenario, settings: SceneSettings) -> tuple[bool, str]:
             best = explore(robot, evaluator, scenario.path.position(t), float(t),
                            samples=settings.witness_samples, redundancy=red).best
         except UnreachableTargetError:
-            return False, f"the hand target at t = {t:.2f} s is out of reach"
+            return Witnessed(False, f"the hand target at t = {t:.2f} s is out of reach")
         if best.S <= 0:
-            return False, f"no collision-free configuration puts the hand on the path at t = {t:.2f} s"
+            return Witnessed(False, f"no collision-free configuration puts the hand on the path at t = {t:.2f} s")
         worst = min(worst, best.S)
-    return True, (f"a collision-free configuration with the hand on the path exists every {duration / steps:.3g} s "
-                  f"({settings.witness_samples} samples; least best S {worst:.1f}); transitions not checked")
+    return Witnessed(True, f"a collision-free configuration with the hand on the path exists every "
+                           f"{duration / steps:.3g} s ({settings.witness_samples} samples; least best S {worst:.1f}); "
+                           "transitions not checked")
 
 
-def _followed(scenario: Scenario, settings: SceneSettings, found: str) -> tuple[bool, str]:
+def _followed(scenario: Scenario, settings: SceneSettings, found: str) -> Witnessed:
     """The planar witness's second half: the ``oracle`` run on ``scenario`` (its own plan, the scenario's
-    execution) must end collision-free with the hand within ``settings.witness_tolerance`` [m]."""
+    execution and seed) must end collision-free with the hand within ``settings.witness_tolerance`` [m]."""
+    start, cpu = time.perf_counter(), time.process_time()
     metrics = run_metrics(simulate(scenario, "oracle"))
+    run = {**metrics, "execution": scenario.controller.params.execution, "seed": scenario.seed,
+           "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}
     error, tolerance = 1e3 * metrics["max_hand_error"], 1e3 * settings.witness_tolerance
     if not metrics["collision_free"]:
-        return False, f"{found}, but the oracle following it collides at t = {metrics['collision_time']:.2f} s"
+        return Witnessed(False, f"{found}, but the oracle following it collides at t = "
+                                f"{metrics['collision_time']:.2f} s", run)
     if metrics["max_hand_error"] >= settings.witness_tolerance:
-        return False, (f"{found}, but the oracle following it leaves the path by {error:.2f} mm "
-                       f"(tolerance {tolerance:g} mm)")
-    return True, f"{found}; the oracle followed it (max hand error {error:.3f} mm, no collision)"
+        return Witnessed(False, f"{found}, but the oracle following it leaves the path by {error:.2f} mm "
+                                f"(tolerance {tolerance:g} mm)", run)
+    return Witnessed(True, f"{found}; the oracle followed it (max hand error {error:.3f} mm, no collision)", run)
