@@ -62,11 +62,16 @@ def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(
     assert {k: recorded[k] for k in timings} == {k: scene.oracle_run[k] for k in timings}
     assert recorded["scenario"] == scenario.name and recorded["controller"] == "oracle"
     pinv = bench_run(dataclasses.replace(spec, execution="pseudoinverse"), scene)  # simulated: not the witness's
-    # scenes.jsonl keeps the run; a line written before it was kept reads without one
+    assert pinv["execution"] == "pseudoinverse" and pinv["cpu_time"] != scene.oracle_run["cpu_time"]
+    # ... but it follows the witness's plan, which is the plan it would make itself
+    assert scene.oracle_plan is not None and len(scene.oracle_plan["times"]) > 10
+    followed = simulate_spec(dataclasses.replace(spec, execution="pseudoinverse"), scene)[1]
+    np.testing.assert_array_equal(followed.q, simulate(pseudoinverse(scenario), "oracle").q)
+    # scenes.jsonl keeps the run and the plan; a line written before they were kept reads without them
     line = json.loads(json.dumps({**dataclasses.asdict(scene), "settings": spec.settings}))
     assert dataclasses.asdict(BenchScene.from_record(line)) == json.loads(json.dumps(dataclasses.asdict(scene)))
-    assert BenchScene.from_record({k: v for k, v in line.items() if k != "oracle_run"}).oracle_run is None
-    assert pinv["execution"] == "pseudoinverse" and pinv["cpu_time"] != scene.oracle_run["cpu_time"]
+    old = BenchScene.from_record({k: v for k, v in line.items() if k not in ("oracle_run", "oracle_plan")})
+    assert old.oracle_run is None and old.oracle_plan is None
     # the first obstacle is aimed at the arm's plain-tracking motion: plain tracking (the paper's eq. 19, no
     # damper) is hit, by a guarded link
     run = simulate(pseudoinverse(scenario), "none")
@@ -237,6 +242,13 @@ def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path:
     assert "| planar4 | multi | pseudoinverse | - | 2:0 |" in text  # against qp, which is always a QP
     assert "| multi | qp | 3 | 67% | 67% | 67% |" in text and "| qp | qp | 3 | 67% |" in text
     assert figure.read_bytes().startswith(b"\x89PNG")
+    assert "oracle" not in text
+    scene = {"robot": "planar4", "rejected": 1, "oracle_run": {"cpu_time": 1.0},
+             "witness": "reachability DP on a 4 deg grid, 32 steps: ...; the oracle followed it (...)"}
+    text = write_report([*records, _record(0, "oracle", True)], [scene], tmp_path)[0].read_text()
+    assert "1 draws rejected by the solvability witness on the way (reachability DP on a 4 deg grid, 32 steps, " \
+           "then followed by the oracle)" in text
+    assert "The planar witness's oracle run is the `oracle` QP run of its scene (recorded, not run again" in text
 
 
 def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:

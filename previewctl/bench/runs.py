@@ -18,8 +18,11 @@ from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
 from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, cached_robot
+from previewctl.control.factory import make_controller
+from previewctl.control.oracle import OracleController
 from previewctl.control.params import ControllerSpec, ExecutionMode
 from previewctl.index.evaluator import Evaluator
+from previewctl.search.reachability import ReachMotion
 from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
@@ -80,13 +83,18 @@ def _scenario(document: str) -> Scenario:
 
 def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult]:
     """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller and execution)
-    and its log (exact check on the robot's mesh geometry)."""
+    and its log (exact check on the robot's mesh geometry). An ``oracle`` follows the scene's
+    :attr:`~BenchScene.oracle_plan` when it has one: the plan it would make (a test checks the runs are the same),
+    made once per scene by the witness, so this run's CPU time leaves the planning out."""
     base = _scenario(json.dumps(scene.document, sort_keys=True))
     execution = cast(ExecutionMode, spec.execution)  # ControllerParams checks the value
     params = dataclasses.replace(base.controller.params, execution=execution)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
-    return scenario, simulate(scenario, seed=spec.seed, exact_evaluator=exact)
+    controller = make_controller(scenario, seed=spec.seed)
+    if isinstance(controller.law, OracleController) and controller.law.window is None and scene.oracle_plan:
+        controller.law.motion = ReachMotion.from_json(scene.oracle_plan)
+    return scenario, simulate(scenario, controller=controller, exact_evaluator=exact)
 
 
 def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:

@@ -157,6 +157,7 @@ class BenchScene:
         witness: what the witness found, one sentence.
         oracle_run: the witness's ``oracle`` run (planar arms; see
             :class:`~previewctl.bench.witness.Witnessed`), which the sweep records instead of running it again.
+        oracle_plan: the plan that run followed, which the scene's other ``oracle`` runs follow too.
     """
 
     robot: str
@@ -166,6 +167,7 @@ class BenchScene:
     rejected: int
     witness: str
     oracle_run: dict[str, Any] | None = None
+    oracle_plan: dict[str, Any] | None = None
 
     def scenario(self) -> Scenario:
         """The scenario, through the scenario files' validation."""
@@ -217,7 +219,8 @@ def generate(robot: str, index: int, seed: int = 0, settings: SceneSettings | No
         scenario = scenario_from_dict(document, source=document["name"])
         found = witness(scenario, settings)
         if found.holds:
-            return BenchScene(robot, index, seed, document, draw, found.sentence, found.oracle_run)
+            return BenchScene(robot, index, seed, document, draw, found.sentence, found.oracle_run,
+                              found.oracle_plan)
     raise ScenarioError(f"{robot} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
 
 

@@ -26,6 +26,8 @@ import numpy as np
 
 from previewctl.bench.metrics import run_metrics
 from previewctl.bench.scenes import SceneSettings
+from previewctl.control.factory import make_controller
+from previewctl.control.oracle import OracleController
 from previewctl.errors import UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.explore import explore
@@ -46,11 +48,15 @@ class Witnessed:
             :func:`~previewctl.bench.metrics.run_metrics`, its ``execution`` and controller ``seed``, and its
             ``wall_time`` and ``cpu_time`` [s]. It is the bench's own ``oracle`` run of the scene under that
             execution and seed, so the sweep does not run it again.
+        oracle_plan: the motion that run followed (:meth:`ReachMotion.to_json
+            <previewctl.search.reachability.ReachMotion.to_json>`): the oracle's plan of the scene, which depends
+            on neither execution nor seed, so the bench's other ``oracle`` runs follow it instead of planning.
     """
 
     holds: bool
     sentence: str
     oracle_run: dict[str, Any] | None = None
+    oracle_plan: dict[str, Any] | None = None
 
 
 def witness(scenario: Scenario, settings: SceneSettings) -> Witnessed:
@@ -89,14 +95,17 @@ def _followed(scenario: Scenario, settings: SceneSettings, found: str) -> Witnes
     """The planar witness's second half: the ``oracle`` run on ``scenario`` (its own plan, the scenario's
     execution and seed) must end collision-free with the hand within ``settings.witness_tolerance`` [m]."""
     start, cpu = time.perf_counter(), time.process_time()
-    metrics = run_metrics(simulate(scenario, "oracle"))
+    oracle = make_controller(scenario, name="oracle")
+    metrics = run_metrics(simulate(scenario, controller=oracle))
     run = {**metrics, "execution": scenario.controller.params.execution, "seed": scenario.seed,
            "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}
+    plan = oracle.law.motion.to_json() if isinstance(oracle.law, OracleController) and oracle.law.motion else None
     error, tolerance = 1e3 * metrics["max_hand_error"], 1e3 * settings.witness_tolerance
     if not metrics["collision_free"]:
         return Witnessed(False, f"{found}, but the oracle following it collides at t = "
-                                f"{metrics['collision_time']:.2f} s", run)
+                                f"{metrics['collision_time']:.2f} s", run, plan)
     if metrics["max_hand_error"] >= settings.witness_tolerance:
         return Witnessed(False, f"{found}, but the oracle following it leaves the path by {error:.2f} mm "
-                                f"(tolerance {tolerance:g} mm)", run)
-    return Witnessed(True, f"{found}; the oracle followed it (max hand error {error:.3f} mm, no collision)", run)
+                                f"(tolerance {tolerance:g} mm)", run, plan)
+    return Witnessed(True, f"{found}; the oracle followed it (max hand error {error:.3f} mm, no collision)", run,
+                     plan)

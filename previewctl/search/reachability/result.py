@@ -38,6 +38,20 @@ class ReachMotion:
     min_S: float  # noqa: N815 -- the paper's symbol S
     total_S: float  # noqa: N815 -- the paper's symbol S
 
+    def to_json(self) -> dict[str, Any]:
+        """The motion as plain JSON values (floats written by ``json`` read back exactly)."""
+        return {"times": self.times.tolist(), "q": self.q.tolist(), "S": self.S.tolist(),
+                "branch": self.branch.tolist(), "cells": self.cells.tolist(), "min_S": self.min_S,
+                "total_S": self.total_S}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> ReachMotion:
+        """The motion :meth:`to_json` wrote."""
+        return cls(times=np.array(data["times"], dtype=float), q=np.array(data["q"], dtype=float),
+                   S=np.array(data["S"], dtype=float), branch=np.array(data["branch"], dtype=np.int64),
+                   cells=np.array(data["cells"], dtype=np.int64), min_S=float(data["min_S"]),
+                   total_S=float(data["total_S"]))
+
     def at(self, t: float) -> Array:
         """Configuration [rad] at time ``t`` [s], linear between samples, held outside."""
         t = float(np.clip(t, self.times[0], self.times[-1]))
