@@ -23,6 +23,7 @@ from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main
 from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.search.reachability import ReachMotion
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 
@@ -40,7 +41,7 @@ def pseudoinverse(scenario: Scenario) -> Scenario:
     return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
 
 
-def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness() -> None:
+def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(tmp_path: Path) -> None:
     scene = generate("planar4", 1, 0, SHORT)
     assert generate("planar4", 1, 0, SHORT).document == scene.document
     assert generate("planar4", 2, 0, SHORT).document != scene.document
@@ -67,9 +68,14 @@ def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(
     assert scene.oracle_plan is not None and len(scene.oracle_plan["times"]) > 10
     followed = simulate_spec(dataclasses.replace(spec, execution="pseudoinverse"), scene)[1]
     np.testing.assert_array_equal(followed.q, simulate(pseudoinverse(scenario), "oracle").q)
-    # scenes.jsonl keeps the run and the plan; a line written before they were kept reads without them
-    line = json.loads(json.dumps({**dataclasses.asdict(scene), "settings": spec.settings}))
+    # scenes.jsonl keeps the run and the plan (strict JSON, as the sweep writes it); a line written before they
+    # were kept reads without them
+    append_record(tmp_path / "scenes.jsonl", {**dataclasses.asdict(scene), "settings": spec.settings})
+    (line,) = read_records(tmp_path / "scenes.jsonl")
     assert dataclasses.asdict(BenchScene.from_record(line)) == json.loads(json.dumps(dataclasses.asdict(scene)))
+    stored, plan = ReachMotion.from_json(line["oracle_plan"]), ReachMotion.from_json(scene.oracle_plan)
+    for name in ("times", "q", "S", "branch", "cells"):
+        np.testing.assert_array_equal(getattr(stored, name), getattr(plan, name))
     old = BenchScene.from_record({k: v for k, v in line.items() if k not in ("oracle_run", "oracle_plan")})
     assert old.oracle_run is None and old.oracle_plan is None
     # the first obstacle is aimed at the arm's plain-tracking motion: plain tracking (the paper's eq. 19, no
@@ -256,8 +262,8 @@ def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:
     append_record(log, {"run": 1, "clearance": float("inf")})
     with log.open("ab") as handle:
         handle.write(b'{"run": 2, "cle')
-    append_record(log, {"run": 3})
-    assert read_records(log) == [{"run": 1, "clearance": None}, {"run": 3}]
+    append_record(log, {"run": 3, "plan": {"S": [float("nan"), 2.0], "min_S": float("-inf")}})
+    assert read_records(log) == [{"run": 1, "clearance": None}, {"run": 3, "plan": {"S": [None, 2.0], "min_S": None}}]
 
 
 def _outcome(scene: int, controller: str, execution: str, success: bool) -> dict[str, object]:

@@ -28,7 +28,17 @@ def read_records(path: Path) -> list[dict[str, Any]]:
     return records
 
 
+def _strict(value: Any) -> Any:
+    """``value`` with every non-finite float, at any depth of its dicts and lists, replaced by ``None``."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    return value
+
+
 def append_record(path: Path, record: dict[str, Any]) -> None:
-    """Append ``record`` as one JSON line (non-finite floats as ``null``)."""
-    clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in record.items()}
-    append_line(path, json.dumps(clean, sort_keys=True, allow_nan=False))
+    """Append ``record`` as one JSON line (non-finite floats as ``null``, nested ones too)."""
+    append_line(path, json.dumps(_strict(record), sort_keys=True, allow_nan=False))

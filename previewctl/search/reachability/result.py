@@ -39,17 +39,22 @@ class ReachMotion:
     total_S: float  # noqa: N815 -- the paper's symbol S
 
     def to_json(self) -> dict[str, Any]:
-        """The motion as plain JSON values (floats written by ``json`` read back exactly)."""
-        return {"times": self.times.tolist(), "q": self.q.tolist(), "S": self.S.tolist(),
-                "branch": self.branch.tolist(), "cells": self.cells.tolist(), "min_S": self.min_S,
+        """The motion as strict JSON values: finite floats (``json`` writes them so that they read back exactly),
+        and ``None`` for a NaN (the S of a motion that holds ``q``)."""
+        def number(v: float) -> float | None:
+            return None if math.isnan(v) else v
+
+        return {"times": self.times.tolist(), "q": self.q.tolist(), "S": [number(v) for v in self.S.tolist()],
+                "branch": self.branch.tolist(), "cells": self.cells.tolist(), "min_S": number(self.min_S),
                 "total_S": self.total_S}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> ReachMotion:
-        """The motion :meth:`to_json` wrote."""
+        """The motion :meth:`to_json` wrote (``None`` back to NaN)."""
+        min_S = data["min_S"]
         return cls(times=np.array(data["times"], dtype=float), q=np.array(data["q"], dtype=float),
                    S=np.array(data["S"], dtype=float), branch=np.array(data["branch"], dtype=np.int64),
-                   cells=np.array(data["cells"], dtype=np.int64), min_S=float(data["min_S"]),
+                   cells=np.array(data["cells"], dtype=np.int64), min_S=math.nan if min_S is None else float(min_S),
                    total_S=float(data["total_S"]))
 
     def at(self, t: float) -> Array:
