@@ -22,6 +22,7 @@ from previewctl.bench.scenes import BenchScene, SceneSettings, generate
 from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main
+from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS
 from previewctl.errors import ParameterError, UnknownNameError
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.loop import simulate
@@ -193,6 +194,20 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
             assert [(c, e) for r, s, c, e in runs if (r, s) == (robot, scene)] == expected
     assert [(s.controller, s.execution) for s in Sweep(controllers=("qp",), executions=("pseudoinverse",)).runs()] \
         == [("none", "pseudoinverse")] * 10
+    # with seeds, only the controllers that draw random numbers run again
+    seeded = Sweep(scenes=1, seeds=3, controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
+    assert [(s.seed, s.controller) for s in seeded] == [
+        (0, "qp"), (0, "multi"), (0, "oracle"), (1, "multi"), (2, "multi")]
+
+
+@pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "multi"])
+def test_the_unseeded_controllers_give_one_run_for_every_seed(name: str) -> None:
+    """What lets the matrix run them for seed 0 only; ``multi`` shows that the scene tells the seeds apart."""
+    disc = {"name": "disc", "shape": "cylinder", "radius": 0.1, "length": 0.4,
+            "motion": {"type": "constant_velocity", "position": [1.3, 0.9, 0.0], "velocity": [0.0, -0.1, 0.0]}}
+    scenario = scenario_from_dict(planar_doc(obstacles=[disc], timing={"duration": 1.0}))
+    runs = [simulate(scenario, name, seed=seed) for seed in (0, 1)]
+    assert np.array_equal(runs[0].q, runs[1].q) == (name not in SEEDED_CONTROLLERS)
 
 
 def test_none_under_the_qp_is_the_qp_run() -> None:

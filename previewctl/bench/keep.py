@@ -16,6 +16,7 @@ from typing import Any
 
 from previewctl.bench.runs import RunSpec, simulate_spec
 from previewctl.bench.scenes import BenchScene
+from previewctl.control.params import run_seed
 from previewctl.files import atomic_folder
 from previewctl.sim.log import save_run
 from previewctl.viz.figures import make_figures
@@ -42,7 +43,7 @@ def contrasts(records: list[dict[str, Any]]) -> dict[tuple[str, bool], tuple[dic
               for r in sorted(records, key=lambda r: (r["robot"], r["scene"], r["seed"]))}
     pairs: dict[tuple[str, bool], tuple[dict[str, Any], dict[str, Any]]] = {}
     for (robot, scene, seed, controller, execution), r in by_key.items():
-        base = by_key.get((robot, scene, seed, baseline, "qp"))
+        base = by_key.get((robot, scene, run_seed(baseline, seed), baseline, "qp"))
         if controller == preview and execution == "qp" and base is not None and r["success_5mm"] != base["success_5mm"]:
             pairs.setdefault((robot, bool(r["success_5mm"])), (r, base))
     return pairs

@@ -48,7 +48,8 @@ class Sweep:
             ``oracle`` and ``horizon`` only on planar4; ``none`` under the QP runs as ``qp``, ``qp`` under the
             pseudo-inverse as ``none``).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
-        seeds: controller seeds ``0 .. seeds - 1``.
+        seeds: controller seeds ``0 .. seeds - 1`` (of the controllers that draw random numbers; the others run
+            once per scene, as seed 0).
         scene_seed: the seed the scenes are drawn with.
         settings: what every scene shares (duration, dt, witness).
     """
@@ -90,7 +91,8 @@ class Sweep:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
 
         Each distinct run once (:func:`~previewctl.control.params.distinct_run`): ``none`` under the QP is the
-        ``qp`` run, and ``qp`` under the pseudo-inverse is the ``none`` run."""
+        ``qp`` run, and ``qp`` under the pseudo-inverse is the ``none`` run; a controller that draws no random
+        numbers runs for seed 0 only (:func:`~previewctl.control.params.run_seed`)."""
         pairs = dict.fromkeys(
             control_params.distinct_run(name, execution)
             for name in self.controllers or control_params.CONTROLLER_NAMES
@@ -101,7 +103,8 @@ class Sweep:
             for scene in range(self.scenes):
                 for seed in range(self.seeds):
                     specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                              for name, execution in pairs if ONLY_ON.get(name, robot) == robot]
+                              for name, execution in pairs if ONLY_ON.get(name, robot) == robot
+                              and control_params.run_seed(name, seed) == seed]
         return specs
 
 

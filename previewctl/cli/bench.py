@@ -15,7 +15,7 @@ from previewctl.bench.results import read_records
 from previewctl.bench.scenes import PROFILES, SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import Commands
-from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES
+from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, SEEDED_CONTROLLERS
 from previewctl.errors import ParameterError
 
 
@@ -44,7 +44,9 @@ def add_parser(commands: Commands) -> None:
            help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
     option("--executions", metavar="NAMES",
            help=f"comma-separated execution modes (default: all of {', '.join(EXECUTION_MODES)})")
-    option("--seeds", type=int, default=1, metavar="N", help="controller seeds 0..N-1 per scene (default 1)")
+    option("--seeds", type=int, default=1, metavar="N",
+           help="controller seeds 0..N-1 per scene (default 1); the controllers that draw no random numbers (all but "
+           f"{', '.join(SEEDED_CONTROLLERS)}) run once, as seed 0")
     option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
     option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
     option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")

@@ -43,6 +43,15 @@ dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's 
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
+SEEDED_CONTROLLERS: tuple[str, ...] = PREVIEW_MODES
+"""The controllers that draw random numbers (their imaginary arms' GA searches); every other controller gives
+the same run for every seed."""
+
+
+def run_seed(name: str, seed: int) -> int:
+    """The seed of the run that controller ``name`` makes with ``seed``: ``seed`` itself for the controllers of
+    :data:`SEEDED_CONTROLLERS`, 0 for the others (their run is the same for every seed)."""
+    return seed if name in SEEDED_CONTROLLERS else 0
 
 
 def distinct_run(name: str, execution: str) -> tuple[str, str]:
