@@ -3,7 +3,8 @@
 For each (scene, controller): how many seeds succeeded (collision-free and max hand error < 5 mm), how
 many finished collision-free, the median time of the first collision (over the seeds that collided), the
 worst hand error over all seeds, and the mean S over the runs. Runs go to a process pool (``--jobs``,
-default: the number of cores).
+default: the number of cores). A controller that draws no random numbers (not one of
+``SEEDED_CONTROLLERS``) gives the same run for every seed, so it runs once and counts for every seed.
 
 Run: ``python benchmarks/bench_preview.py [--seeds 10] [--controllers none,multi,...] [scenario.toml ...]``
 (default scenes: the shipped planar scenes). ``--set key=value`` overrides a controller parameter,
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from previewctl.control.params import CONTROLLER_NAMES
+from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS, run_seed
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -67,11 +68,14 @@ def main() -> None:
     scenes = [str(Path(s)) for s in args.scenes] or [str(shipped_scenarios_dir() / s) for s in DEFAULT_SCENES]
     settings = dict(item.split("=", 1) for item in args.set)
     controllers = args.controllers.split(",")
-    jobs = [(s, c, seed, settings) for s in scenes for c in controllers for seed in range(args.seeds)]
+    # a controller that draws no random numbers makes the same run for every seed: run it once, count it per seed
+    jobs = [(s, c, seed, settings) for s in scenes for c in controllers for seed in range(args.seeds)
+            if run_seed(c, seed) == seed]
     outcomes: dict[tuple[str, str], list[dict[str, float]]] = {}
     with ProcessPoolExecutor(args.jobs) as pool:
         for path, controller, _, outcome in pool.map(run_one, jobs):
-            outcomes.setdefault((path, controller), []).append(outcome)
+            copies = args.seeds if controller not in SEEDED_CONTROLLERS else 1
+            outcomes.setdefault((path, controller), []).extend([outcome] * copies)
     for scene in scenes:
         print(f"\n{Path(scene).name}, seeds 0-{args.seeds - 1}{', ' + str(settings) if settings else ''}")
         print(f"{'controller':<10}{'success':>9}{'collision-free':>16}{'first collision (median)':>26}"
