@@ -17,12 +17,26 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
+
+try:
+    import tomllib
+except ImportError:  # Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
 
 import numpy as np
 
-from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS, run_seed
+from previewctl.control.params import (
+    CONTROLLER_NAMES,
+    SEEDED_CONTROLLERS,
+    ControllerParams,
+    ControllerSpec,
+    run_seed,
+)
+from previewctl.errors import PreviewctlError, UnknownNameError
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -31,16 +45,29 @@ DEFAULT_SCENES = ("paper_planar.toml",)
 SUCCESS_TOLERANCE = 5e-3  # [m]
 
 
+def _value(text: str) -> Any:
+    """A ``--set`` value as the scenario file's ``[controller]`` table would hold it: a TOML value (``2.0``,
+    ``[0.2, 0.3, 0.5]``, ``false``), or else the bare text (``pseudoinverse``); ``ControllerParams`` checks it."""
+    try:
+        return tomllib.loads(f"value = {text}")["value"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
 def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:
-    """``scenario`` with controller parameters overridden from ``key=value`` strings."""
-    params = scenario.controller.params
-    typed: dict[str, object] = {}
-    for key, text in settings.items():
-        current = getattr(params, key)
-        typed[key] = text.lower() == "true" if isinstance(current, bool) else type(current)(text)
-    return dataclasses.replace(
-        scenario, controller=dataclasses.replace(scenario.controller, params=dataclasses.replace(params, **typed))
-    )
+    """``scenario`` with controller parameters overridden from ``key=value`` strings.
+
+    Raises:
+        UnknownNameError: a key that is no ``ControllerParams`` field (the valid ones listed).
+        ParameterError: a value the field does not take.
+    """
+    fields = [f.name for f in dataclasses.fields(ControllerParams)]
+    for key in settings:
+        if key not in fields:
+            raise UnknownNameError("controller parameter", key, fields)
+    typed: dict[str, Any] = {key: _value(text) for key, text in settings.items()}
+    params = dataclasses.replace(scenario.controller.params, **typed)
+    return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
 
 
 def run_one(job: tuple[str, str, int, dict[str, str]]) -> tuple[str, str, int, dict[str, float]]:
@@ -66,8 +93,17 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes")
     args = parser.parse_args()
     scenes = [str(Path(s)) for s in args.scenes] or [str(shipped_scenarios_dir() / s) for s in DEFAULT_SCENES]
+    if any("=" not in item for item in args.set):
+        parser.error(f"--set takes KEY=VALUE, got {next(item for item in args.set if '=' not in item)!r}")
     settings = dict(item.split("=", 1) for item in args.set)
     controllers = args.controllers.split(",")
+    try:  # bad settings, scenes or names: one line, before any run
+        for scene in scenes:
+            _override(load_scenario(scene), settings)
+        for name in controllers:
+            ControllerSpec(name)
+    except PreviewctlError as exc:
+        sys.exit(f"bench_preview: {exc}")
     # a controller that draws no random numbers makes the same run for every seed: run it once, count it per seed
     jobs = [(s, c, seed, settings) for s in scenes for c in controllers for seed in range(args.seeds)
             if run_seed(c, seed) == seed]

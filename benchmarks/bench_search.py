@@ -25,6 +25,7 @@ import pinocchio as pin
 
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.load import load_robot
+from previewctl.robot.model import Geometry
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
 from previewctl.search.explore import explore
@@ -73,7 +74,7 @@ def bench_grid() -> None:
     print(f"  speed-up                       {w_loop * scale / wall:8.0f} x wall {c_loop * scale / cpu:8.0f} x CPU")
 
 
-def bench_ga(name: str, robot_name: str, scene: Scene, target: np.ndarray, geometry: str = "convex") -> None:
+def bench_ga(name: str, robot_name: str, scene: Scene, target: np.ndarray, geometry: Geometry = "convex") -> None:
     robot = load_robot(robot_name, geometry=geometry)
     evaluator = Evaluator(robot, scene)
     red = redundancy_map(robot)
