@@ -4,7 +4,8 @@ For each (scene, controller): how many seeds succeeded (collision-free and max h
 many finished collision-free, the median time of the first collision (over the seeds that collided), the
 worst hand error over all seeds, and the mean S over the runs. Runs go to a process pool (``--jobs``,
 default: the number of cores). A controller that draws no random numbers (not one of
-``SEEDED_CONTROLLERS``) gives the same run for every seed, so it runs once and counts for every seed.
+``SEEDED_CONTROLLERS``) gives the same run for every seed, so it runs once and counts for every seed
+(``run_seed``).
 
 Run: ``python benchmarks/bench_preview.py [--seeds 10] [--controllers none,multi,...] [scenario.toml ...]``
 (default scenes: the shipped planar scenes). ``--set key=value`` overrides a controller parameter,
@@ -22,16 +23,15 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-try:
-    import tomllib
-except ImportError:  # Python 3.10
-    import tomli as tomllib  # type: ignore[no-redef]
-
 import numpy as np
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
 
 from previewctl.control.params import (
     CONTROLLER_NAMES,
-    SEEDED_CONTROLLERS,
     ControllerParams,
     ControllerSpec,
     run_seed,
@@ -109,8 +109,8 @@ def main() -> None:
             if run_seed(c, seed) == seed]
     outcomes: dict[tuple[str, str], list[dict[str, float]]] = {}
     with ProcessPoolExecutor(args.jobs) as pool:
-        for path, controller, _, outcome in pool.map(run_one, jobs):
-            copies = args.seeds if controller not in SEEDED_CONTROLLERS else 1
+        for path, controller, seed, outcome in pool.map(run_one, jobs):
+            copies = sum(run_seed(controller, other) == seed for other in range(args.seeds))
             outcomes.setdefault((path, controller), []).extend([outcome] * copies)
     for scene in scenes:
         print(f"\n{Path(scene).name}, seeds 0-{args.seeds - 1}{', ' + str(settings) if settings else ''}")
