@@ -133,6 +133,33 @@ def test_an_obstacle_faster_than_the_arm_is_reported_as_slack(planar4: Robot) ->
     assert np.all(np.abs(qdot) <= 0.1 * planar4.joints.velocity + 1e-12)
 
 
+def test_when_the_dampers_cannot_all_hold_the_links_come_before_the_hand(planar4: Robot) -> None:
+    """A disc at 0.2 m/s, 7 cm from link 2, against an arm at 0.3 of its speed limits: the dampers are infeasible.
+    Holding the hand would take a slack of 0.068 m/s (what penalising the slack inside the task QP gave); giving
+    the hand up takes 0.0006 m/s. The QP must take the smallest slack, whatever the hand's weight, and keep every
+    damper within it."""
+    q = np.array([0.3, 1.2, -0.8, 1.0])
+    data = planar4.model.createData()
+    pin.forwardKinematics(planar4.model, data, q)
+    a, b = data.oMi[2].translation, data.oMi[3].translation
+    along = (b - a) / np.linalg.norm(b - a)
+    normal = np.array([-along[1], along[0], 0.0])
+    disc = pc.Obstacle("disc", pc.Sphere(0.05), pc.ConstantVelocity((a + b) / 2 + 0.07 * normal, -0.2 * normal))
+    path = _hand_path(planar4, q, np.array([0.05, -0.05]))
+    state = _state(planar4, q, path)
+    slacks = []
+    for weight in (1e4, 1e-6):
+        params = ControllerParams(velocity_scale=0.3, task_weight=weight)
+        _, info = TrackingController(planar4, params).command(0.0, q, state)
+        execution = QPExecution(planar4, pc.Scene((disc,)), params)
+        qdot, report = execution(0.0, q, state, info)
+        rows = execution.dampers(q, 0.0)
+        assert np.all(rows.G @ qdot <= rows.h + report.slack + 1e-8)
+        slacks.append(report.slack)
+    assert 0.0 < slacks[0] < 1e-3
+    assert slacks[0] == pytest.approx(slacks[1], abs=1e-6)
+
+
 def test_a_joint_at_its_limit_is_saturated_and_the_others_hold_the_hand(panda: Robot) -> None:
     """Joint 1 at its upper limit and a reference (no limit-avoidance term) that pushes it further: the QP holds
     joint 1 and moves the hand exactly with the other six (clamping joint 1 alone would lose the hand)."""

@@ -30,8 +30,12 @@ preview pull, a gradient or zero), the QP is
   (:func:`~previewctl.control.tracking.step_correction`), computed for the law's own command. When a
   constraint binds, the QP executes another ``q̇``, so the hand term's target is corrected again for the
   QP's solution (the same two Gauss-Newton corrections, each a re-solve).
-* Infeasible constraints (e.g. an obstacle faster than the arm): the QP is solved again with one slack
-  ``s_k ≥ 0`` per damper row, penalised by ``slack_weight · s_k²``; the largest slack [m/s] is reported.
+* Infeasible constraints (e.g. an obstacle faster than the arm): safety comes before the hand. A first QP
+  finds the smallest damper violations the joint bounds allow (one slack ``s_k ≥ 0`` per row, cost
+  ``slack_weight · s_k²`` plus the joint term, without the hand term), and the task QP is solved with each
+  row loosened by its slack. The largest slack [m/s] is reported. (Penalising the slacks inside the task QP
+  instead let the hand term buy a deeper approach: on a Panda bench scene link 3 went 0.2 mm into a ball
+  while the hand stayed on its path.)
 
 The solver is DAQP through ``qpsolvers``: a dense active-set method for small QPs, with wheels on PyPI for
 every CI platform, about 30 µs per solve at these sizes.
@@ -182,15 +186,23 @@ class QPExecution:
         return np.clip(solved, lower, upper), slack  # the solver meets the box to ~1e-15; make it exact
 
     def _soft(self, P: Array, c: Array, rows: Dampers, lower: Array, upper: Array) -> tuple[Array, float]:
-        """The QP with one slack per damper row (``s ≥ 0``, cost ``slack_weight · s²``): ``(q̇, max s)``."""
+        """The dampers cannot all hold: the links' safety first, then the hand. ``(q̇, max s)``.
+
+        1. The smallest damper violation the joint bounds allow: one slack ``s_k ≥ 0`` [m/s] per row, minimise
+           ``slack_weight ‖s‖² + ‖q̇ − q̇_ref‖²`` (the hand task is left out, so it cannot buy a deeper approach).
+        2. The task QP with each row loosened by its slack, ``G q̇ ≤ h + s``.
+        """
         nv, R = c.size, rows.h.size
         P_soft = np.zeros((nv + R, nv + R))
-        P_soft[:nv, :nv] = P
+        P_soft[:nv, :nv] = self._identity
         P_soft[nv:, nv:] = self.params.slack_weight * np.eye(R)
+        reference = -np.linalg.solve(P, c)  # the task QP's unconstrained minimiser
         G = np.hstack([rows.G, -np.eye(R)])
-        x = qpsolvers.solve_qp(P_soft, np.concatenate([c, np.zeros(R)]), G, rows.h,
+        x = qpsolvers.solve_qp(P_soft, np.concatenate([-reference, np.zeros(R)]), G, rows.h,
                                lb=np.concatenate([lower, np.zeros(R)]), ub=np.concatenate([upper, np.full(R, 1e3)]),
                                solver=SOLVER)
         if x is None:  # not expected (q̇ = 0 with s = max(0, −h) is feasible); stop rather than guess
             return np.zeros(nv), float(np.max(-rows.h, initial=0.0))
-        return x[:nv], float(x[nv:].max(initial=0.0))
+        slack = x[nv:]
+        solved = qpsolvers.solve_qp(P, c, rows.G, rows.h + slack + _ACTIVE_TOL, lb=lower, ub=upper, solver=SOLVER)
+        return (x[:nv] if solved is None else solved), float(slack.max(initial=0.0))

@@ -140,7 +140,8 @@ class ControllerParams(Checked):
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
-        slack_weight: the QP's penalty on the damper slacks when the dampers are infeasible.
+        slack_weight: when the dampers are infeasible, the penalty on their slacks against the joint term in the
+            QP that finds the smallest violation (the hand term is left out of it).
         damper_gain: ``ξ`` [m/s], the approach speed a damper allows at the influence distance.
         influence_distance: ``d_i`` [m], link–obstacle distance below which a damper acts.
         safety_distance: ``d_s`` [m], the distance a damper never lets a link approach closer than; ``< d_i``.
