@@ -490,6 +490,32 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
 
+def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
+    """The straight sweep of a Newton redundancy map: each sample is the interpolated joint vector solved onto the
+    hand target, so the move goes toward the peak step by step. (Seeding every sample's Newton with the sample
+    before it, as was done, solved back onto the start: the sweep stood still and jumped to the peak at its last
+    step, so a route of the Panda almost never passed the speed test.)"""
+    q = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])
+    tip = kinematics(panda, q[None, :]).tip_position[0]
+    path = HandPath(np.array([tip, tip + 1e-9]), 5.0)  # the hand holds still
+    red = redundancy_map(panda)
+    peak, reachable = red.solve(q[None, :] + np.array([0.6, 0.0, 0.4, 0.0, -0.5, 0.0, 0.3]), np.zeros(1, int), tip)
+    assert reachable[0]
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=1.0, settle_frames=1)
+    best = FakeCandidate(np.zeros(7), 0, peak[0], 100.0)
+    searches = [FakePeaksGA(best, [best]), FakePeaksGA(best, [best])]
+    controller = ReachController(panda, params, Evaluator(panda), searches, red)
+    controller.command(0.0, q, state_for(panda, q, path))
+    route = controller.route
+    assert route is not None and route.complete
+    samples = controller.sweep_samples + 1
+    moved = np.abs(wrapped_difference(panda, q, route.lead))
+    whole = np.abs(wrapped_difference(panda, q, peak[0]))
+    assert np.all(moved <= panda.velocity_limits / samples + 1e-12)  # one step within the speed limits
+    assert np.linalg.norm(moved) == pytest.approx(np.linalg.norm(whole) / samples, rel=0.3)  # a share of the way
+    np.testing.assert_allclose(kinematics(panda, route.lead[None, :]).tip_position[0], tip, atol=1e-4)
+
+
 @pytest.mark.parametrize("near_S", [(100.0, 100.0), (100.0, -1.0)])
 def test_coherent_reach_on_a_planar_arm_follows_the_dp_to_the_latest_reachable_peak(
         planar4: Robot, near_S: tuple[float, float]) -> None:

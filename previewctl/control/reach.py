@@ -161,7 +161,7 @@ class ReachController:
                 Q, reachable = ends[pairs[:, 1]], np.ones(len(pairs), bool)
             else:
                 branch = branch_a[pairs[:, 0]] if 2 * k <= self.sweep_samples + 1 else branch_b[pairs[:, 1]]
-                Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float), previous)
+                Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float))
                 ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
             steps = np.array(
                 [wrapped_difference(self.robot, a, b, keep=self._keep) for a, b in zip(previous, Q, strict=True)]
