@@ -8,10 +8,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from previewctl.control.params import ControllerParams, ControllerSpec
+from previewctl.control.base import ControlState
+from previewctl.control.factory import build_law
+from previewctl.control.params import SPATIAL_NEIGHBOURS, ControllerParams, ControllerSpec
 from previewctl.control.peaks import PeakTracker
 from previewctl.control.preview import wrapped_difference
 from previewctl.index.evaluator import Evaluator
+from previewctl.kinematics import kinematics
+from previewctl.path import HandPath
 from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA
@@ -90,6 +94,36 @@ def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> N
     ramps = [tracker.update(*_options((A, 100.0)), np.array(A), REACH).ramp for _ in range(6)]  # type: ignore[union-attr]
     assert ramps == [0.0, 0.25, 0.5, 0.75, 1.0, 1.0]
     assert tracker.update(*_options((A, -1.0)), np.array(A), REACH) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_tracked_peak_of_a_spatial_arm_climbs_with_its_mutants(panda: Robot, seed: int) -> None:
+    """The hand holds still in free space, so the landscape does not change: the tracked target should climb to
+    the peak above the arm (S ≈ 5500, where the gradient from there goes). With no mutants bred around it the
+    population (64 individuals, 4 genes) holds nothing within ``track_radius`` of it, and it stays put."""
+    q = np.array([-0.14, 0.23, -0.54, -2.16, 0.05, 2.18, 0.79])
+    kin = kinematics(panda, q[None, :])
+    tip = kin.tip_position[0]
+    state = ControlState(kin, HandPath(np.array([tip, tip + 1e-9]), 5.0), 0.01, frame_due=True)
+    climbed = {}
+    for neighbours in (0, None):
+        law = build_law(ControllerSpec("single", ControllerParams(track_neighbours=neighbours)), panda,
+                        Evaluator(panda), np.random.default_rng(seed))
+        S = []
+        for _ in range(30):  # 30 camera frames at the same time: a static landscape
+            _, info = law.command(0.0, q, state)
+            assert info.target_amsip is not None
+            S.append(float(info.target_amsip[0]))
+        climbed[neighbours] = S[-1] / S[0]
+    assert ControllerParams().neighbours(planar=False) == SPATIAL_NEIGHBOURS > 0
+    assert climbed[None] > 3.0  # 1534 -> 5500
+    assert climbed[0] < 1.5  # 1534 -> 1534 (seeds 1, 2) or 1813 (seed 0)
+
+
+def test_planar_arms_breed_no_mutants_by_default_and_a_given_number_is_kept() -> None:
+    assert ControllerParams().neighbours(planar=True) == 0
+    assert ControllerParams(track_neighbours=4).neighbours(planar=True) == 4
+    assert ControllerParams(track_neighbours=0).neighbours(planar=False) == 0
 
 
 def test_branch_lock_breeds_every_individual_on_one_branch(planar4: Robot) -> None:

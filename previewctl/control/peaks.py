@@ -8,7 +8,10 @@ follows one peak per imaginary arm:
 
 * the tracked peak is the best individual of the imaginary arm's search within ``track_radius`` (in
   joint space) of the previous target. The controller seeds each search with its last target, so
-  the tracked peak stays in the population;
+  the tracked peak stays in the population, and with ``track_neighbours`` mutants of it, so that it
+  climbs: on a spatial arm the population seldom holds another individual that close (Panda bench
+  scene 8: without them the target stayed at S ≈ 1700 for 2 s while the gradient from the same
+  start climbed to 5500);
 * the imaginary arms form a chain, as the sequences of the paper's Fig. 3: arm ``i`` (at ``t + i t̃``)
   must be reachable from arm ``i - 1`` (the real arm for ``i = 1``) within ``t̃`` at the joint speed
   limits, ``|Δq_j| ≤ q̇max_j t̃``. At the first frame each arm starts from the one before it, and a

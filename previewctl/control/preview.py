@@ -126,6 +126,7 @@ class PreviewController:
         # The planar elbow joint is never wrapped: within one branch its plain difference is the way that
         # does not pass through the unreachable folded wrist (q_n = ±π).
         self._keep = (robot.nv - 1,) if self._branches is not None else ()
+        self._neighbours = params.neighbours(planar=robot.planar is not None)
 
     @property
     def preview_times(self) -> Array:
@@ -162,7 +163,11 @@ class PreviewController:
         peak = self._trackers[i].update(Q, S, q if i == 0 else targets[i - 1], self._reach)
         if peak is not None:
             targets[i], values[i], self._ramp[i] = peak.q, peak.S, peak.ramp
-            search.seed(peak.q)  # keep the tracked peak in the population
+            # keep the tracked peak in the population, with mutants of it so that it climbs
+            if isinstance(search, OneStepGA):
+                search.seed(peak.q, neighbours=self._neighbours)
+            else:
+                search.seed(peak.q)
         else:  # nothing feasible this frame: no pull from this arm (its last target is kept for the log)
             self._ramp[i] = 0.0
             if self._targets is not None and self._target_amsip is not None:

@@ -199,14 +199,19 @@ class OneStepGA:
         """``(P,)`` AMSIP of the current population at the last step's target and time (a copy)."""
         return self._S.copy()
 
-    def seed(self, q: Array) -> None:
-        """Inject configuration(s) ``(nq,)`` or ``(B, nq)`` (e.g. the current arm) into the next generation.
+    def seed(self, q: Array, neighbours: int = 0) -> None:
+        """Inject configuration(s) ``(nq,)`` or ``(B, nq)`` (e.g. the current arm) into the next generation,
+        each with ``neighbours`` mutants of it (the mutation operator below, same branch).
 
         They replace offspring (or random initial individuals) at the next :meth:`step`; at most
         ``population - elite - top_k`` are kept.
         """
         Q, _ = self.robot.check_configurations(q)
         genes, branch = self.redundancy.genes_of(Q)
+        if neighbours:
+            mutants = np.repeat(genes, neighbours, axis=0)
+            genes = np.concatenate([genes, self._repair(self._mutate(mutants))])
+            branch = np.concatenate([branch, np.repeat(branch, neighbours)])
         self._pending_genes = np.concatenate([self._pending_genes, genes])
         self._pending_branch = np.concatenate([self._pending_branch, branch])
 
@@ -237,13 +242,17 @@ class OneStepGA:
         child = np.where(cross[:, None], a + u * diff, a)
         from_b = cross & (rng.random(count) < 0.5)
         branch = np.where(from_b, self._branch[winners[1]], self._branch[winners[0]])
-        sigma = self.mutation_scale * 2.0 ** -rng.uniform(0.0, 5.0, count)
-        child = child + sigma[:, None] * rng.standard_normal((count, self.g))
+        child = self._mutate(child)
         if self.redundancy.branches > 1:
             flip = rng.random(count) < self.branch_flip
             other = (branch + rng.integers(1, self.redundancy.branches, count)) % self.redundancy.branches
             branch = np.where(flip, other, branch)
         return self._repair(child), branch.astype(int)
+
+    def _mutate(self, genes: Array) -> Array:
+        """Gaussian mutation of every gene, one log-uniform scale ``mutation_scale 2^-u``, ``u ~ U(0, 5)``, per row."""
+        sigma = self.mutation_scale * 2.0 ** -self.rng.uniform(0.0, 5.0, len(genes))
+        return genes + sigma[:, None] * self.rng.standard_normal(genes.shape)
 
     def _next_population(self) -> tuple[Array, NDArray[np.int_]]:
         P = self.population
