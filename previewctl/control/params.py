@@ -67,11 +67,12 @@ def distinct_run(name: str, execution: str) -> tuple[str, str]:
 
 
 SPATIAL_NEIGHBOURS = 16
-"""The default ``track_neighbours`` of a spatial arm. With 4 genes (Panda) a population of 64 holds on average
-0.04 random individuals within ``track_radius`` of a target, so without mutants bred around it the tracked peak
-is the seeded target itself and never climbs (planar arms, 2 genes: 1.3, besides the GA's own offspring).
-Chosen on held-out scenes, ``multi`` under the QP, success at 1 mm: Panda (scene seeds 1 and 2, 40 scenes)
-28 → 29 (8 mutants) → 31 (16); planar (scene seed 6, 30 scenes) 24 → 22 (8) and 23 (16), so none there."""
+"""The default ``track_neighbours`` of a spatial arm. Its GA population (64 individuals, 7 genes projected onto a
+4-dimensional self-motion manifold) seldom holds any individual near the tracked target but the target itself:
+with the Panda's hand held still, none other within ``track_radius`` at 28 of 30 frames, so the target never
+climbed. On planar4 (2 genes) the GA gathers 40-54 individuals there after ten frames. Chosen on held-out scenes,
+``multi`` under the QP, success at 1 mm: Panda (scene seeds 1 and 2, 40 scenes) 28 → 29 (8 mutants) → 31 (16);
+planar (scene seed 6, 30 scenes) 24 → 22 (8) and 23 (16), so none there."""
 
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""
