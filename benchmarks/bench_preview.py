@@ -25,11 +25,6 @@ from typing import Any
 
 import numpy as np
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # Python 3.10
-    import tomli as tomllib
-
 from previewctl.control.params import (
     CONTROLLER_NAMES,
     ControllerParams,
@@ -40,6 +35,7 @@ from previewctl.errors import PreviewctlError, UnknownNameError
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario
+from previewctl.validation.toml import toml_value
 
 DEFAULT_SCENES = ("paper_planar.toml",)
 SUCCESS_TOLERANCE = 5e-3  # [m]
@@ -48,10 +44,7 @@ SUCCESS_TOLERANCE = 5e-3  # [m]
 def _value(text: str) -> Any:
     """A ``--set`` value as the scenario file's ``[controller]`` table would hold it: a TOML value (``2.0``,
     ``[0.2, 0.3, 0.5]``, ``false``), or else the bare text (``pseudoinverse``); ``ControllerParams`` checks it."""
-    try:
-        return tomllib.loads(f"value = {text}")["value"]
-    except tomllib.TOMLDecodeError:
-        return text
+    return toml_value(text)
 
 
 def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:

@@ -469,6 +469,13 @@ def test_scene_errors(tmp_path: Path, body: str, match: str) -> None:
     assert isinstance(info.value, PreviewctlError)
 
 
+def test_a_scene_file_that_is_not_utf8_is_named_not_a_traceback(tmp_path: Path) -> None:
+    path = tmp_path / "latin1.toml"
+    path.write_bytes('[[obstacles]]\nname = "côte"\n'.encode("latin-1"))
+    with pytest.raises(SceneError, match=r"scene file '.*latin1\.toml' cannot be read: 'utf-8' codec"):
+        load_scene(path)
+
+
 CUBE_OBJ = "\n".join(
     [f"v {x} {y} {z}" for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
     + [

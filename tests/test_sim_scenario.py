@@ -312,8 +312,12 @@ def test_file_errors_carry_the_file_name(tmp_path: Path) -> None:
         load_scenario(path)
     with pytest.raises(ScenarioError, match="not valid TOML"):
         load_scenario(write(tmp_path, "[robot\nsource=", "broken.toml"))
-    with pytest.raises(ScenarioError, match="does not exist"):
+    with pytest.raises(ScenarioError, match=r"scenario file '.*nope\.toml' does not exist"):
         load_scenario(tmp_path / "nope.toml")
+    latin1 = tmp_path / "latin1.toml"
+    latin1.write_bytes('name = "côte"\n'.encode("latin-1"))
+    with pytest.raises(ScenarioError, match=r"scenario file '.*latin1\.toml' cannot be read: 'utf-8' codec"):
+        load_scenario(latin1)
 
 
 # ------------------------------------------------------------------------------------- CLI

@@ -15,22 +15,18 @@ Every error is a :class:`~previewctl.errors.SceneError` naming the bad key (``ob
 from __future__ import annotations
 
 import dataclasses
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 from previewctl.errors import SceneError
 from previewctl.scene.motion import ConstantVelocity, Motion, Periodic, Static, Waypoints, rpy_to_matrix
 from previewctl.scene.schema import SHAPES, MotionTable, SceneFile
 from previewctl.scene.shapes import Obstacle, Scene
 from previewctl.validation import validate
+from previewctl.validation.toml import read_toml
 
 
 def motion_from_table(spec: Any, where: str) -> Motion:
@@ -109,14 +105,9 @@ def load_scene(path: str | Path) -> Scene:
     """Read a scene TOML file holding ``[[obstacles]]`` tables.
 
     Raises:
-        SceneError: missing file, TOML syntax error, or a bad obstacle (named in the message).
+        SceneError: missing or unreadable file, TOML syntax error, or a bad obstacle (named in the message).
     """
     file = Path(path)
-    if not file.is_file():
-        raise SceneError(f"scene file {str(file)!r} does not exist")
-    try:
-        data = tomllib.loads(file.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"scene file {str(file)!r} is not valid TOML: {exc}") from exc
+    data = read_toml(file, SceneError, "scene file")
     doc = validate(SceneFile, data, SceneError, prefix=f"scene file {str(file)!r}: ", root="the scene")
     return scene_from_tables(doc.obstacles, file.parent)

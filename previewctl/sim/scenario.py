@@ -50,7 +50,6 @@ the valid ones (with a "did you mean" for near misses).
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -60,10 +59,6 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 from previewctl.control.params import ControllerParams, ControllerSpec
 from previewctl.control.tracking import gain_vector
 from previewctl.errors import PreviewctlError, ScenarioError, UnreachableTargetError
@@ -80,6 +75,7 @@ from previewctl.search.explore import explore
 from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing, Verdict
 from previewctl.types import Array
 from previewctl.validation import show, validate
+from previewctl.validation.toml import read_toml
 
 __all__ = ["FIGURES", "OutputSpec", "RobotSpec", "Scenario", "Timing", "Verdict", "load_scenario",
            "scenario_from_dict"]
@@ -152,14 +148,7 @@ def load_scenario(path: str | os.PathLike[str], *, auto_start: bool = False) -> 
         ScenarioError: missing file, TOML syntax error, or any bad key or value (named in the message).
     """
     file = Path(path)
-    if not file.is_file():
-        raise ScenarioError(f"scenario file {str(file)!r} does not exist")
-    try:
-        data = tomllib.loads(file.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{file}: not valid TOML: {exc}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{file}: cannot be read: {exc}") from exc
+    data = read_toml(file, ScenarioError, "scenario file")
     if auto_start and isinstance(data.get("robot"), dict):
         robot = {key: value for key, value in data["robot"].items() if key not in ("q0", "q0_deg")}
         data = {**data, "robot": {**robot, "q0": "auto"}}

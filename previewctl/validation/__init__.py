@@ -20,6 +20,8 @@ whether it comes from a file (the TOML schemas :mod:`previewctl.sim.schema` and
   caller's :class:`~previewctl.errors.PreviewctlError` with that line.
 * :mod:`~previewctl.validation.arrays`: checks for the value objects that hold NumPy arrays (motions,
   hand paths, targets), which pydantic does not describe.
+* :mod:`~previewctl.validation.toml`: :func:`~previewctl.validation.toml.read_toml`, the one reader of the
+  scenario and scene files (a missing, unreadable or malformed file named in the message).
 """
 
 from previewctl.validation.arrays import (
