@@ -100,7 +100,8 @@ def test_the_pull_ramps_in_after_a_change_and_nothing_feasible_gives_none() -> N
 def test_a_tracked_peak_of_a_spatial_arm_climbs_with_its_mutants(panda: Robot, seed: int) -> None:
     """The hand holds still in free space, so the landscape does not change: the tracked target should climb to
     the peak above the arm (S ≈ 5500, where the gradient from there goes). With no mutants bred around it the
-    population (64 individuals, 4 genes) holds nothing within ``track_radius`` of it, and it stays put."""
+    population (64 individuals, 7 genes on a 4-dimensional self-motion manifold) holds nothing else within
+    ``track_radius`` of it, and it stays put."""
     q = np.array([-0.14, 0.23, -0.54, -2.16, 0.05, 2.18, 0.79])
     kin = kinematics(panda, q[None, :])
     tip = kin.tip_position[0]
@@ -117,7 +118,7 @@ def test_a_tracked_peak_of_a_spatial_arm_climbs_with_its_mutants(panda: Robot, s
         climbed[neighbours] = S[-1] / S[0]
     assert ControllerParams().neighbours(planar=False) == SPATIAL_NEIGHBOURS > 0
     assert climbed[None] > 3.0  # 1534 -> 5500
-    assert climbed[0] < 1.5  # 1534 -> 1534 (seeds 1, 2) or 1813 (seed 0)
+    assert climbed[0] < 1.5  # 1534 -> 1813 (seed 0) or 1534 (seed 1)
 
 
 def test_planar_arms_breed_no_mutants_by_default_and_a_given_number_is_kept() -> None:
