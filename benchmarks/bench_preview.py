@@ -41,14 +41,9 @@ DEFAULT_SCENES = ("paper_planar.toml",)
 SUCCESS_TOLERANCE = 5e-3  # [m]
 
 
-def _value(text: str) -> Any:
-    """A ``--set`` value as the scenario file's ``[controller]`` table would hold it: a TOML value (``2.0``,
-    ``[0.2, 0.3, 0.5]``, ``false``), or else the bare text (``pseudoinverse``); ``ControllerParams`` checks it."""
-    return toml_value(text)
-
-
 def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:
-    """``scenario`` with controller parameters overridden from ``key=value`` strings.
+    """``scenario`` with controller parameters overridden from ``key=value`` strings, each value read as the
+    scenario file's ``[controller]`` table would hold it (:func:`~previewctl.validation.toml.toml_value`).
 
     Raises:
         UnknownNameError: a key that is no ``ControllerParams`` field (the valid ones listed).
@@ -58,7 +53,7 @@ def _override(scenario: Scenario, settings: dict[str, str]) -> Scenario:
     for key in settings:
         if key not in fields:
             raise UnknownNameError("controller parameter", key, fields)
-    typed: dict[str, Any] = {key: _value(text) for key, text in settings.items()}
+    typed: dict[str, Any] = {key: toml_value(text) for key, text in settings.items()}
     params = dataclasses.replace(scenario.controller.params, **typed)
     return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
 
