@@ -16,7 +16,7 @@ import pytest
 from previewctl.bench.scenes import generate
 from previewctl.cli.main import main
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import ORACLE_OPTIONS, OracleController
+from previewctl.control.oracle import ORACLE_OPTIONS
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
@@ -517,8 +517,6 @@ def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
     path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
     with pytest.raises(PlanarOnlyError, match=r"^reach-map: planar arms only \(robot 'panda' is spatial\)$"):
         reach_over_time(panda, Evaluator(panda), path, panda.neutral(), 2.0)
-    with pytest.raises(PlanarOnlyError, match="planar arms only"):
-        OracleController(panda, ControllerParams(), Evaluator(panda))
 
 
 def test_options_name_the_bad_value() -> None:
@@ -690,9 +688,7 @@ def test_horizon_finishes_a_bench_scene_where_the_qp_baseline_is_trapped() -> No
     assert summary["success"] and summary["max_hand_error"] < 1e-3
 
 
-def test_horizon_refuses_a_spatial_arm_and_a_bad_replan_period_or_window() -> None:
-    with pytest.raises(PlanarOnlyError, match=r"^horizon: planar arms only \(robot 'panda' is spatial\)"):
-        make_controller(load_scenario(SCENARIOS / "panda_crossing.toml"), name="horizon")
+def test_horizon_refuses_a_bad_replan_period_or_window() -> None:
     with pytest.raises(ParameterError, match="replan_period"):
         ControllerParams(replan_period=0.0)
     with pytest.raises(ParameterError, match=r"plan_window.*-1"):

@@ -30,7 +30,7 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
                      help="override the scenario's controller ('horizon': the reachability DP over the preview "
                      "window, replanned; 'oracle': non-causal, follows the DP's best motion over the whole run, see "
-                     "reach-map; both planar only)")
+                     "reach-map; on a spatial arm both plan by a sampled search instead of the planar DP)")
     run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
     run.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     run.add_argument("--tolerance", type=float,

@@ -2,7 +2,8 @@
 
 The names: ``none``, ``qp``, ``gradient``, ``single``, ``multi``, ``reach``, ``horizon`` (the reachability DP
 over the preview window, replanned) and ``oracle`` (non-causal: it follows the reachability DP's best motion
-over the whole future, a reference for the others). Every one is
+over the whole future, a reference for the others; on spatial arms both plan by the sampled search of
+:mod:`previewctl.search.roadmap`). Every one is
 executed through the constrained QP unless ``params.execution = "pseudoinverse"``; ``qp`` always is.
 
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a

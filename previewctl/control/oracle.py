@@ -21,7 +21,11 @@ of the DP's model).
 The plan is made at the first call of :meth:`OracleController.command` from the state's path and
 scene, the evaluator's index and potential and the configuration at that time, over the rest of
 the path (``path.end_time − t``); that first cycle therefore takes seconds. Pass ``plan=`` to reuse
-a plan made before. Planar arms of 2-4 joints only (the DP's grid).
+a plan made before. The DP needs a planar arm of 2-4 joints (its grid). On any other arm the plan is the best
+motion of the sampled forward search :func:`previewctl.search.roadmap.roadmap_over_time`, with every sample
+``0.05 s`` apart: sound but not complete (a motion it returns was checked sample by sample; "none found" only
+means that its beam found none). On held-out Panda bench scenes (scene seeds 1 and 2, 40 scenes, QP
+execution) the spatial oracle followed its motion within 1 mm without collision on 38.
 
 ``horizon`` is the same machinery made causal: the paper's "future reachability evaluation" done by
 the DP instead of by imaginary arms. It reads the future only over a window of ``plan_window`` [s]
@@ -29,7 +33,8 @@ the DP instead of by imaginary arms. It reads the future only over a window of `
 scenes set 6 s): every ``replan_period`` [s] (default ``t̃ / 2``) it plans from the arm's configuration
 over ``[t, t + plan_window]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at
 most 24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
-the window and knows nothing beyond it.
+the window and knows nothing beyond it. On a spatial arm it replans with a smaller sampled search
+(:data:`HORIZON_ROADMAP`).
 """
 
 from __future__ import annotations
@@ -46,9 +51,10 @@ from previewctl.control.tracking import gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
-from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability import ReachMotion, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.grid import fast_enough
+from previewctl.search.roadmap import RoadmapOptions, roadmap_over_time
 from previewctl.types import Array
 
 ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, map_times=0)
@@ -65,6 +71,8 @@ with plans at the full limit (tried), eq. 19 scaled the commands down and the or
 HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, map_times=0)
 """The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
 :data:`HORIZON_STEP` of the window)."""
+HORIZON_ROADMAP = RoadmapOptions(beam=16, children=8)
+"""The sampled search ``horizon`` replans a spatial arm with."""
 HORIZON_STEP = 0.16
 """[s] the DP's time step in ``horizon``'s plans (the oracle's 8 s / 50 steps on the bench scenes) ..."""
 HORIZON_MAX_STEPS = 24
@@ -76,7 +84,7 @@ class OracleController:
     that replans over the preview window (see the module docstring).
 
     Args:
-        robot: a planar arm of 2 to 4 joints.
+        robot: the arm (planar arms of 2 to 4 joints: the DP; any other: the sampled search).
         params: gains (``gain`` is ``K_v`` [1/s]), feedback, damping and limits of eq. 19.
         evaluator: the AMSIP evaluator of the scene (the DP's S and distances).
         plan: a plan made before (a :class:`ReachResult` or its :class:`ReachMotion`); default: planned at
@@ -85,6 +93,7 @@ class OracleController:
             number of steps until a gene may move at :data:`ORACLE_GENE_SPEED` of its joint speed limit
             (coarsening the grid if needed); every plan lowers it when the path left is too short for it (a
             step must let a gene move by at least one grid cell).
+        roadmap: the spatial oracle's search (default :class:`~previewctl.search.roadmap.RoadmapOptions`).
         lookahead: ``t_l`` [s], how far ahead on the plan the target is taken (>= 0).
         window: ``horizon`` mode: how far ahead [s] each plan looks (``None``: the oracle, the whole rest).
         replan_period: ``horizon`` mode: time between plans [s].
@@ -99,7 +108,6 @@ class OracleController:
         planned: the DP result of the last plan made, which may not be followed yet.
 
     Raises:
-        PlanarOnlyError: a spatial arm.
         ConfigurationError: a negative or non-finite lookahead, window, replan period or latency, or a latency
             longer than the replan period.
     """
@@ -112,15 +120,13 @@ class OracleController:
         *,
         plan: ReachResult | ReachMotion | None = None,
         options: ReachOptions | None = None,
+        roadmap: RoadmapOptions | None = None,
         lookahead: float = 0.1,
         window: float | None = None,
         replan_period: float = 0.5,
         latency: float = 0.0,
     ) -> None:
         self.name = "oracle" if window is None else "horizon"
-        if robot.planar is None:
-            raise PlanarOnlyError(f"{self.name}: planar arms only (robot {robot.name!r} is spatial); the reachability "
-                                  f"DP it follows needs the planar redundancy grid")
         times = {"lookahead": (lookahead, True), "replan period": (replan_period, False), "latency": (latency, True)}
         if window is not None:
             times["window"] = (window, False)
@@ -135,6 +141,7 @@ class OracleController:
                                      "must be at most the period")
         self.robot, self.params, self.evaluator = robot, params, evaluator
         self.options = options or (ORACLE_OPTIONS if window is None else HORIZON_OPTIONS)
+        self.roadmap = roadmap or (RoadmapOptions() if window is None else HORIZON_ROADMAP)
         self.lookahead = float(lookahead)
         self.window = None if window is None else float(window)
         self.replan_period = float(replan_period)
@@ -167,6 +174,9 @@ class OracleController:
                                branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
                                min_S=float("nan"), total_S=0.0)
             return self._made(t, hold, None)
+        if self.robot.planar is None:  # the oracle of a spatial arm: the sampled forward search
+            found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t)
+            return self._made(t, found.motion, None)
         options = self.options
         if self.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))

@@ -1,0 +1,123 @@
+"""The sampled reachability search of spatial arms (``previewctl.search.roadmap``), the spatial ``oracle`` that
+follows it, and the spatial ``horizon`` that replans with it."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from previewctl.control.factory import make_controller
+from previewctl.control.oracle import HORIZON_ROADMAP, OracleController
+from previewctl.errors import ParameterError
+from previewctl.index.evaluator import Evaluator
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.roadmap import RoadmapOptions, RoadmapResult, roadmap_over_time
+from previewctl.sim.loop import simulate
+from previewctl.sim.scenario import Scenario, load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+
+
+@pytest.fixture(scope="module")
+def crossing() -> Scenario:
+    """``panda_crossing`` cut to its first 5 s: plain tracking is hit at 3.65 s."""
+    scenario = load_scenario(SCENARIOS / "panda_crossing.toml")
+    return dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=5.0))
+
+
+@pytest.fixture(scope="module")
+def found(crossing: Scenario) -> tuple[Evaluator, RoadmapResult]:
+    evaluator = Evaluator(crossing.robot, crossing.scene, crossing.index, crossing.potential)
+    return evaluator, roadmap_over_time(crossing.robot, evaluator, crossing.path, crossing.q0, 5.0)
+
+
+def test_the_motion_tracks_the_path_within_the_speed_limits_and_clear_of_the_ball(
+        crossing: Scenario, found: tuple[Evaluator, RoadmapResult]) -> None:
+    evaluator, result = found
+    motion, opts = result.motion, RoadmapOptions()
+    assert result.exists and result.reached == result.horizon == 5.0
+    assert "a collision-free tracking motion was found to t = 5.00 s" in result.verdict()
+    sub = opts.step / (opts.substeps + 1)
+    np.testing.assert_allclose(motion.times, np.arange(len(motion.times)) * sub, atol=1e-12)
+    assert motion.times[-1] == pytest.approx(5.0)
+    np.testing.assert_array_equal(motion.q[0], crossing.q0)
+    steps = np.abs(np.diff(motion.q, axis=0))
+    assert np.all(steps <= crossing.robot.velocity_limits * opts.speed_share * sub + 1e-9)
+    assert np.all(motion.q >= crossing.robot.lower_limits - 1e-12)
+    assert np.all(motion.q <= crossing.robot.upper_limits + 1e-12)
+    for t, q, S in zip(motion.times[1:], motion.q[1:], motion.S[1:], strict=True):
+        check = evaluator(q[None], float(t))
+        assert np.linalg.norm(check.tip_position[0] - crossing.path.position(float(t))) < 1e-4
+        assert check.min_distance[0] > opts.margin
+        assert check.S[0] == pytest.approx(S)
+    assert motion.min_S == pytest.approx(motion.S[1:].min())
+    assert motion.total_S == pytest.approx(motion.S[1:].sum())
+
+
+def test_plain_tracking_is_hit_where_the_motion_is_clear(crossing: Scenario,
+                                                         found: tuple[Evaluator, RoadmapResult]) -> None:
+    """The search is needed: plain tracking by the paper's eq. 19 is hit inside the 5 s the motion passes clear."""
+    params = dataclasses.replace(crossing.controller.params, execution="pseudoinverse")
+    literal = dataclasses.replace(crossing, controller=dataclasses.replace(crossing.controller, params=params))
+    summary = simulate(literal, "none").summary()
+    assert summary["collided"] and summary["collision_time"] < 5.0
+    assert found[1].motion.min_S > 0
+
+
+def test_the_same_seed_gives_the_same_motion_and_another_seed_another(crossing: Scenario) -> None:
+    evaluator = Evaluator(crossing.robot, crossing.scene, crossing.index, crossing.potential)
+    small = RoadmapOptions(beam=8, children=4)
+    runs = [roadmap_over_time(crossing.robot, evaluator, crossing.path, crossing.q0, 1.0, dataclasses.replace(
+        small, seed=seed)) for seed in (3, 3, 4)]
+    np.testing.assert_array_equal(runs[0].motion.q, runs[1].motion.q)
+    assert not np.array_equal(runs[0].motion.q, runs[2].motion.q)
+
+
+def test_a_ball_on_the_path_ends_every_motion_before_the_hand_reaches_it(panda: Robot) -> None:
+    """The hand must pass through a static ball at the path's end: no motion, and the dead end comes before."""
+    path = HandPath(np.array([[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]]), 2.0)
+    scene = Scene((Obstacle("ball", Sphere(0.08), Static(np.array([0.45, 0.25, 0.35]))),))
+    q0 = np.array([-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785])
+    result = roadmap_over_time(panda, Evaluator(panda, scene), path, q0, 2.0, RoadmapOptions(beam=8, children=4))
+    assert not result.exists
+    # the hand is 0.5 m from the ball's centre at t = 0 and reaches 0.08 m at t = 1.68 s
+    assert 0.5 <= result.reached < 1.68
+    assert result.verdict() == f"no motion found beyond t = {result.reached:.2f} s (the horizon is 2.00 s)"
+    assert result.motion.times[-1] == pytest.approx(result.reached)
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("step", 0.0, r"roadmap step must be a finite number > 0, got 0\.0"),
+    ("beam", 0, r"roadmap beam must be an integer >= 1, got 0"),
+    ("children", 2.5, r"roadmap children must be an integer >= 1, got 2\.5"),
+    ("speed_share", 1.5, r"roadmap speed_share must be in \(0, 1\], got 1\.5"),
+    ("margin", -0.01, r"roadmap margin must be a finite number >= 0 \[m\], got -0\.01"),
+])
+def test_options_name_the_bad_value(field: str, value: object, message: str) -> None:
+    with pytest.raises(ParameterError, match=message):
+        RoadmapOptions(**{field: value})
+
+
+def test_a_bad_duration_is_named(panda: Robot) -> None:
+    path = HandPath(np.array([[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]]), 2.0)
+    with pytest.raises(ParameterError, match=r"duration must be a finite number > 0 \[s\], got -1\.0"):
+        roadmap_over_time(panda, Evaluator(panda), path, panda.neutral(), -1.0)
+
+
+def test_the_spatial_oracle_follows_its_motion_clear_of_the_ball(crossing: Scenario) -> None:
+    summary = simulate(crossing, "oracle").summary()
+    assert not summary["collided"] and summary["max_hand_error"] < 1e-3
+
+
+def test_the_spatial_horizon_replans_with_the_smaller_search(crossing: Scenario) -> None:
+    controller = make_controller(crossing, name="horizon")
+    assert isinstance(controller.law, OracleController)
+    assert controller.law.window == pytest.approx(3.0) and controller.law.roadmap == HORIZON_ROADMAP
+    summary = simulate(crossing, controller=controller).summary()
+    assert not summary["collided"] and summary["max_hand_error"] < 1e-3
