@@ -11,12 +11,13 @@ import pytest
 
 from previewctl.control.factory import make_controller
 from previewctl.control.oracle import HORIZON_ROADMAP, OracleController
-from previewctl.errors import ParameterError
+from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.reachability.goals import Goals
 from previewctl.search.roadmap import RoadmapOptions, RoadmapResult, roadmap_over_time
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -121,3 +122,19 @@ def test_the_spatial_horizon_replans_with_the_smaller_search(crossing: Scenario)
     assert controller.law.window == pytest.approx(3.0) and controller.law.roadmap == HORIZON_ROADMAP
     summary = simulate(crossing, controller=controller).summary()
     assert not summary["collided"] and summary["max_hand_error"] < 1e-3
+
+
+def test_a_goal_beyond_the_speed_limits_is_not_reached(crossing: Scenario) -> None:
+    """A configuration 2 rad away on every joint cannot be reached in 1 s: no goal, and the motion goes to the end."""
+    evaluator = Evaluator(crossing.robot, crossing.scene, crossing.index, crossing.potential)
+    far = Goals(1.0, (crossing.q0 + 2.0)[None, :], np.array([1.0]))
+    result = roadmap_over_time(crossing.robot, evaluator, crossing.path, crossing.q0, 1.5,
+                               RoadmapOptions(beam=8, children=4), goals=[far])
+    assert result.exists and result.goal is None
+    assert result.motion.times[-1] == pytest.approx(1.5)
+
+
+def test_an_arm_with_continuous_joints_is_refused(kinova: Robot) -> None:
+    path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
+    with pytest.raises(ConfigurationError, match=r"without continuous joints \(robot 'kinova' has nq = 9, nv = 6\)"):
+        roadmap_over_time(kinova, Evaluator(kinova), path, kinova.neutral(), 1.0)

@@ -22,10 +22,10 @@ The plan is made at the first call of :meth:`OracleController.command` from the 
 scene, the evaluator's index and potential and the configuration at that time, over the rest of
 the path (``path.end_time − t``); that first cycle therefore takes seconds. Pass ``plan=`` to reuse
 a plan made before. The DP needs a planar arm of 2-4 joints (its grid). On any other arm the plan is the best
-motion of the sampled forward search :func:`previewctl.search.roadmap.roadmap_over_time`, with every sample
-``0.05 s`` apart: sound but not complete (a motion it returns was checked sample by sample; "none found" only
-means that its beam found none). On held-out Panda bench scenes (scene seeds 1 and 2, 40 scenes, QP
-execution) the spatial oracle followed its motion within 1 mm without collision on 38.
+motion of the sampled forward search :func:`previewctl.search.roadmap.roadmap_over_time`, its samples 0.05 s
+apart: checked at its samples only, and not complete ("none found" only means that its beam found none). On
+held-out Panda bench scenes (scene seeds 1 and 2, 40 scenes, QP execution) the spatial oracle followed its
+motion within 1 mm without collision on 38.
 
 ``horizon`` is the same machinery made causal: the paper's "future reachability evaluation" done by
 the DP instead of by imaginary arms. It reads the future only over a window of ``plan_window`` [s]
@@ -105,7 +105,8 @@ class OracleController:
     Attributes:
         motion, result: the plan being followed, and its DP result (``None`` for a plan with nothing left to
             track, or one given as a bare motion).
-        planned: the DP result of the last plan made, which may not be followed yet.
+        planned: the DP result of the last plan made, which may not be followed yet (``None`` on a spatial arm).
+        goal: ``(level, index)`` of the goal the last plan made heads for (``goals[level].q[index]``), or ``None``.
 
     Raises:
         ConfigurationError: a negative or non-finite lookahead, window, replan period or latency, or a latency
@@ -150,6 +151,7 @@ class OracleController:
         self.result: ReachResult | None = plan if isinstance(plan, ReachResult) else None
         self.motion: ReachMotion | None = plan.motion if isinstance(plan, ReachResult) else plan
         self.planned: ReachResult | None = self.result
+        self.goal: tuple[int, int] | None = None
         self._pending: tuple[float, ReachMotion, ReachResult | None] | None = None  # (from when [s], motion, result)
         self._gain = gain_vector(params.gain, robot.nv, "gain")
 
@@ -174,9 +176,10 @@ class OracleController:
                                branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
                                min_S=float("nan"), total_S=0.0)
             return self._made(t, hold, None)
-        if self.robot.planar is None:  # the oracle of a spatial arm: the sampled forward search
-            found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t)
-            return self._made(t, found.motion, None)
+        if self.robot.planar is None:  # a spatial arm: the sampled forward search
+            found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t,
+                                      goals=goals)
+            return self._made(t, found.motion, None, found.goal)
         options = self.options
         if self.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
@@ -188,12 +191,13 @@ class OracleController:
             if fit < options.steps:
                 options = replace(options, steps=max(1, fit))
         result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
-        return self._made(t, result.motion, result)
+        return self._made(t, result.motion, result, result.goal)
 
-    def _made(self, t: float, motion: ReachMotion, result: ReachResult | None) -> ReachMotion:
+    def _made(self, t: float, motion: ReachMotion, result: ReachResult | None,
+              goal: tuple[int, int] | None = None) -> ReachMotion:
         """A plan made at ``t`` [s]: followed from now on, or from ``t + latency`` once there is one to follow."""
         self._arrive(t)
-        self.planned = result
+        self.planned, self.goal = result, goal
         if self.latency > 0 and self.motion is not None:
             self._pending = (t + self.latency, motion, result)
         else:
