@@ -111,11 +111,21 @@ def test_planar_witness_rejects_a_disc_that_runs_over_the_base() -> None:
     assert 1.0 <= stuck <= 1.5
 
 
-def test_spatial_scene_is_deterministic_and_has_a_hand_on_path_configuration_every_quarter_second() -> None:
+def test_spatial_scene_is_deterministic_and_its_witness_follows_a_found_motion() -> None:
+    """The necessary check, then the sampled search's motion followed by the oracle (its run recorded); without
+    ``witness_follow`` the necessary check alone."""
     settings = SceneSettings(duration=3.0, witness_samples=64)
     scene = generate("panda", 0, 0, settings)
     assert generate("panda", 0, 0, settings).document == scene.document
     assert "exists every 0.25 s" in scene.witness
+    assert "; sampled search: a collision-free tracking motion was found to t = 3.00 s" in scene.witness
+    assert "; the oracle followed it (max hand error" in scene.witness
+    assert scene.oracle_run is not None and scene.oracle_run["collision_free"]
+    assert scene.oracle_run["max_hand_error"] < settings.witness_tolerance
+    assert scene.oracle_plan is not None and scene.oracle_plan["times"][-1] == pytest.approx(3.0)
+    necessary = witness(scene.scenario(), dataclasses.replace(settings, witness_follow=False))
+    assert necessary.holds and necessary.oracle_run is None
+    assert necessary.sentence.endswith("; transitions not checked")
     ball = scene.document["obstacles"][0]
     assert ball["shape"] == "sphere" and len(ball["motion"]["velocity"]) == 3
 
@@ -189,8 +199,8 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
     runs = [(s.robot, s.scene, s.controller, s.execution) for s in sweep.runs()]
     for robot in ("planar4", "panda"):
         for scene in (0, 1):
-            expected = [("qp", "qp"), ("none", "pseudoinverse"), ("multi", "qp"), ("multi", "pseudoinverse")]
-            expected += [("oracle", "qp"), ("oracle", "pseudoinverse")] if robot == "planar4" else []
+            expected = [("qp", "qp"), ("none", "pseudoinverse"), ("multi", "qp"), ("multi", "pseudoinverse"),
+                        ("oracle", "qp"), ("oracle", "pseudoinverse")]  # the spatial oracle too
             assert [(c, e) for r, s, c, e in runs if (r, s) == (robot, scene)] == expected
     assert [(s.controller, s.execution) for s in Sweep(controllers=("qp",), executions=("pseudoinverse",)).runs()] \
         == [("none", "pseudoinverse")] * 10
@@ -269,7 +279,7 @@ def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path:
     text = write_report([*records, _record(0, "oracle", True)], [scene], tmp_path)[0].read_text()
     assert "1 draws rejected by the solvability witness on the way (reachability DP on a 4 deg grid, 32 steps, " \
            "then followed by the oracle)" in text
-    assert "The planar witness's oracle run is the `oracle` QP run of its scene (recorded, not run again" in text
+    assert "The witness's oracle run is the `oracle` QP run of its scene (recorded, not run again" in text
 
 
 def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:

@@ -125,7 +125,7 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
             lines += [f"{robot}: {len(drawn)} scenes generated, {rejected} draws rejected by the solvability "
                       f"witness on the way ({how}).", ""]
     if any(r["controller"] == "oracle" for r in records) and any(s.get("oracle_run") for s in scenes):
-        lines += ["The planar witness's oracle run is the `oracle` QP run of its scene (recorded, not run again; its "
+        lines += ["The witness's oracle run is the `oracle` QP run of its scene (recorded, not run again; its "
                   "CPU time includes the plan). The `oracle`'s other runs follow that plan: their CPU time leaves the "
                   "planning out.", ""]
     lines += ["## Success rates", ""]

@@ -33,8 +33,6 @@ scenes 0-1, one process): 5.8 s of system time and 14.2 s wall with Dask's setti
 defaults, 0.3 s and 8.3 s with these; the first 800-run sweep spent 505 of its 3279 CPU-seconds in the system."""
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
-ONLY_ON = {"oracle": "planar4", "horizon": "planar4"}
-"""Controllers run on one robot only: ``oracle`` and ``horizon`` need the planar reachability DP."""
 
 
 @dataclass(frozen=True)
@@ -45,8 +43,7 @@ class Sweep:
         robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
-            ``oracle`` and ``horizon`` only on planar4; ``none`` under the QP runs as ``qp``, ``qp`` under the
-            pseudo-inverse as ``none``).
+            ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
         seeds: controller seeds ``0 .. seeds - 1`` (of the controllers that draw random numbers; the others run
             once per scene, as seed 0).
@@ -103,8 +100,7 @@ class Sweep:
             for scene in range(self.scenes):
                 for seed in range(self.seeds):
                     specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                              for name, execution in pairs if ONLY_ON.get(name, robot) == robot
-                              and control_params.run_seed(name, seed) == seed]
+                              for name, execution in pairs if control_params.run_seed(name, seed) == seed]
         return specs
 
 

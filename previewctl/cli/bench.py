@@ -25,11 +25,11 @@ def add_parser(commands: Commands) -> None:
         "bench",
         help="benchmark every controller x execution mode on seeded solvable scenes (Dask)",
         description="Generate seeded scenes per robot (a hand path in reach, an obstacle crossing the intermediate "
-        "links mid-run, sometimes a second; each draw must pass a solvability witness: on planar4 the reachability DP "
-        "finds a motion and the oracle follows it within 1 mm, on spatial arms a collision-free hand-on-path "
-        "configuration exists every 0.25 s), run every controller (horizon and the non-causal oracle only on planar4) "
-        "with every execution mode and controller seed (each distinct run once: none under the QP is the qp baseline, "
-        "qp under the pseudo-inverse is none; the oracle run of the planar witness is recorded, not run again), and "
+        "links mid-run, sometimes a second; each draw must pass a solvability witness: the reachability DP on planar4, "
+        "a sampled search on spatial arms, finds a collision-free tracking motion and the oracle follows it within "
+        "1 mm), run every controller with every execution mode and controller seed (each distinct run once: none "
+        "under the QP is the qp baseline, qp under the pseudo-inverse is none; the witness's oracle run is recorded, "
+        "not run again), and "
         "write OUT/results.jsonl (one line per run, appended as runs finish), OUT/scenes.jsonl, OUT/report.md and "
         "OUT/success.png, and keep the failures (and one success per controller) with their figures and 3-D replays "
         "in OUT/runs/. A rerun does only the runs missing from OUT/results.jsonl. Runs on a local Dask cluster "
