@@ -597,10 +597,17 @@ def test_cli_reach_map_takes_enough_steps_for_the_genes_speed_by_default(capsys:
     assert json.loads(capsys.readouterr().out)["grid"]["steps"] == 20
 
 
-def test_cli_reach_map_spatial_robot(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["reach-map", str(SCENARIOS / "panda_crossing.toml")]) == 2
-    err = capsys.readouterr().err
-    assert err == "previewctl: error: reach-map: planar arms only (robot 'panda' is spatial)\n"
+def test_cli_reach_map_spatial_robot_runs_the_sampled_search(capsys: pytest.CaptureFixture[str],
+                                                              tmp_path: Path) -> None:
+    """``panda_crossing`` (10 s): the sampled search finds a motion; the printed verdict, the JSON and the files."""
+    assert main(["reach-map", str(SCENARIOS / "panda_crossing.toml"), "--json", "--out", str(tmp_path)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["search"] == "sampled" and summary["exists"] and summary["reached"] == 10.0
+    assert summary["verdict"].startswith("a collision-free tracking motion was found to t = 10.00 s")
+    assert summary["best_min_S"] > 0 and summary["options"]["beam"] == 48
+    assert json.loads((tmp_path / "reach.json").read_text()) == summary
+    motion = np.load(tmp_path / "reach_motion.npz")
+    assert motion["q"].shape == (len(motion["times"]), 7) and motion["times"][-1] == pytest.approx(10.0)
 
 
 def test_oracle_tracks_the_plan_without_collision() -> None:

@@ -1,10 +1,13 @@
-"""``previewctl reach-map``: reachability over time of a planar scenario (the global, non-causal reference)."""
+"""``previewctl reach-map``: reachability over time of a scenario (the global, non-causal reference): the DP on a
+planar arm, the sampled forward search on a spatial one."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -14,9 +17,10 @@ from previewctl.control.oracle import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
 from previewctl.planar.redundancy import PlanarRedundancy
-from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability import ReachMotion, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_nodes
-from previewctl.sim.scenario import load_scenario
+from previewctl.search.roadmap import RoadmapOptions, roadmap_over_time
+from previewctl.sim.scenario import Scenario, load_scenario
 
 
 def add_parser(sub: Any) -> None:
@@ -24,15 +28,19 @@ def add_parser(sub: Any) -> None:
     defaults = ReachOptions()
     parser = sub.add_parser(
         "reach-map",
-        help="can the arm track the whole path without collision? (planar arms; DP over grid x time)",
+        help="can the arm track the whole path without collision? (planar: DP over grid x time; spatial: a "
+        "sampled search)",
         description="Reachability over time (the paper's section 5.1 made exact on a grid): dynamic programming "
         "over the redundancy grid (q1 .. q(n-2) x both elbow branches) x time, from the scenario's q0, with "
         "S > 0 as the feasible set, every joint within its speed limit per step (the elbow switching only "
         "through the stretched wrist) and a sweep bound that keeps the motion between samples collision-free. "
         "Prints whether a collision-free tracking motion exists (else where every motion gets stuck), the "
         "latest time by which the arm must commit to a family, the best minimum S of a motion and the time "
-        "taken. A 'no' is relative to the grid, the time step and the per-step gene cap. Planar arms of 2-4 "
-        "joints only. See previewctl.search.reachability for every definition.",
+        "taken. A 'no' is relative to the grid, the time step and the per-step gene cap. The DP needs a planar "
+        "arm of 2-4 joints (see previewctl.search.reachability for every definition). On a spatial arm the "
+        "grid options do not apply: a sampled forward search over time (previewctl.search.roadmap, the spatial "
+        "oracle's) says whether it found a collision-free tracking motion (checked at samples 0.05 s apart; a "
+        "'no' only means that it found none), its best minimum S and the time taken.",
     )
     parser.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     parser.add_argument("--resolution", type=float, default=defaults.resolution_deg,
@@ -54,7 +62,7 @@ def add_parser(sub: Any) -> None:
                         "separates them) and how long each one's reachable set lives; evaluates the whole grid at "
                         "every step")
     parser.add_argument("--out", help="folder for reach_maps.png (Fig. 8-like), reach_motion.png, reach.json and "
-                        "reach_motion.npz")
+                        "reach_motion.npz (a spatial arm: reach.json and reach_motion.npz)")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.set_defaults(func=cmd_reach_map)
 
@@ -64,7 +72,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     robot = scenario.robot
     if robot.planar is None:
-        raise PlanarOnlyError(f"reach-map: planar arms only (robot {robot.name!r} is spatial)")
+        return _spatial(args, scenario)
     steps = ReachOptions().steps if args.steps is None else args.steps
     options = ReachOptions(resolution_deg=args.resolution, steps=steps, max_step_cells=args.max_step_cells,
                            s_min=args.s_min, velocity_scale=args.velocity_scale, start_families=args.start_families)
@@ -96,9 +104,47 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def save_motion(result: ReachResult, path: Path) -> Path:
+def _spatial(args: argparse.Namespace, scenario: Scenario) -> int:
+    """``reach-map`` on a spatial arm: the sampled forward search from ``q0`` over the whole scenario."""
+    robot, duration = scenario.robot, scenario.timing.duration
+    evaluator = Evaluator(robot, scenario.scene, scenario.index, scenario.potential)
+    options = RoadmapOptions()
+    started, cpu = time.perf_counter(), time.process_time()
+    found = roadmap_over_time(robot, evaluator, scenario.path, scenario.q0, duration, options)
+    timings = {"total": time.perf_counter() - started, "cpu": time.process_time() - cpu}
+    summary: dict[str, Any] = {
+        "scenario": scenario.name, "robot": robot.name, "duration": duration, "search": "sampled",
+        "exists": found.exists, "verdict": found.verdict(), "reached": found.reached,
+        "best_min_S": None if math.isnan(found.motion.min_S) else found.motion.min_S,
+        "evaluations": found.evaluations, "options": dataclasses.asdict(options), "timings_s": timings}
+    written: list[str] = []
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        summary["files"] = [str(out / "reach.json"), str(out / "reach_motion.npz")]
+        atomic_write_bytes(out / "reach.json", (json.dumps(summary, indent=2) + "\n").encode())
+        save_motion(found.motion, out / "reach_motion.npz")
+        written = summary["files"]
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    rows = [("scenario", f"{scenario.name} ({robot.name}), {duration:g} s"),
+            ("search", f"sampled forward search: layers every {options.step:g} s, {options.beam} kept "
+                       f"configurations, {options.children} moves each at up to {options.speed_share:.0%} of the "
+                       f"joint speed limits, samples every {options.step / (options.substeps + 1):g} s at least "
+                       f"{1e3 * options.margin:g} mm from every obstacle; seed {options.seed}"),
+            ("verdict", found.verdict()),
+            ("time taken", f"{timings['total']:.2f} s wall, {timings['cpu']:.2f} s CPU; {found.evaluations} "
+                           "configurations evaluated")]
+    rows += [("written", path) for path in written]
+    for label, value in rows:
+        print(f"{label:<18}{value}")
+    return 0
+
+
+def save_motion(result: ReachResult | ReachMotion, path: Path) -> Path:
     """Write the best motion (``times`` [s], ``q`` [rad], ``S``, ``branch``) to an ``.npz`` file, atomically."""
-    motion = result.motion
+    motion = result.motion if isinstance(result, ReachResult) else result
     atomic_write(path, lambda f: np.savez(f, times=motion.times, q=motion.q, S=motion.S, branch=motion.branch))
     return path
 
