@@ -11,14 +11,14 @@ and differs only in the null-space input ``v``:
   differences of the :class:`~previewctl.index.evaluator.Evaluator`, one batch of ``2 nv`` configurations);
 * ``single`` (eq. 20): ``v = K_v (q̃(t + t̃) − q)``;
 * ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
-* ``reach`` (Fig. 3): a route of peaks, one per future time, that the arm can move through
-  with the best total S (:mod:`previewctl.control.reach`);
-* ``horizon`` (planar arms): the same DP over the preview window ``[t, t + p t̃]`` only, replanned every
+* ``reach`` (Fig. 3): heads for the imaginary arms' best peak that a checked motion reaches, planned by the
+  DP of ``horizon`` (or straight routes of peaks in the paper-literal mode) (:mod:`previewctl.control.reach`);
+* ``horizon``: the reachability DP over the preview window ``[t, t + p t̃]`` only, replanned every
   ``replan_period``: future reachability evaluated on the redundancy grid instead of by imaginary arms
-  (:mod:`previewctl.control.oracle`);
-* ``oracle`` (non-causal, a reference, planar arms): ``v`` pulls toward the best motion of the
-  reachability DP over the whole future (:mod:`previewctl.control.oracle`,
-  :mod:`previewctl.search.reachability`).
+  (:mod:`previewctl.control.oracle`; on spatial arms by the sampled search of :mod:`previewctl.search.roadmap`);
+* ``oracle`` (non-causal, a reference): ``v`` pulls toward the best motion of the reachability DP over the
+  whole future (:mod:`previewctl.control.oracle`, :mod:`previewctl.search.reachability`; on spatial arms the
+  sampled search's).
 
 ``with_gradient`` (off by default; not in the paper) adds the local ascent ``K_g ∇_q S`` of
 ``gradient`` to the null-space input of ``single`` and ``multi``. The preview pull heads for the

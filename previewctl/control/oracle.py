@@ -21,7 +21,7 @@ of the DP's model).
 The plan is made at the first call of :meth:`OracleController.command` from the state's path and
 scene, the evaluator's index and potential and the configuration at that time, over the rest of
 the path (``path.end_time − t``); that first cycle therefore takes seconds. Pass ``plan=`` to reuse
-a plan made before. The DP needs a planar arm of 2-4 joints (its grid). On any other arm the plan is the best
+a plan made before. The DP needs a planar arm of 2-4 joints (its grid). On a spatial arm the plan is the best
 motion of the sampled forward search :func:`previewctl.search.roadmap.roadmap_over_time`, its samples 0.05 s
 apart: checked at its samples only, and not complete ("none found" only means that its beam found none). On
 held-out Panda bench scenes (scene seeds 1 and 2, 40 scenes, QP execution) the spatial oracle followed its
@@ -72,7 +72,8 @@ HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, ma
 """The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
 :data:`HORIZON_STEP` of the window)."""
 HORIZON_ROADMAP = RoadmapOptions(beam=16, children=8)
-"""The sampled search ``horizon`` replans a spatial arm with."""
+"""The sampled search ``horizon`` (and coherent ``reach``) replans a spatial arm with: a third of the oracle's beam and
+two thirds of its moves per node, for cost (a 6 s plan costs about 0.7 s of CPU on the Panda); not tuned further."""
 HORIZON_STEP = 0.16
 """[s] the DP's time step in ``horizon``'s plans (the oracle's 8 s / 50 steps on the bench scenes) ..."""
 HORIZON_MAX_STEPS = 24
@@ -84,7 +85,7 @@ class OracleController:
     that replans over the preview window (see the module docstring).
 
     Args:
-        robot: the arm (planar arms of 2 to 4 joints: the DP; any other: the sampled search).
+        robot: the arm (a planar arm: the DP, which needs 2 to 4 joints; a spatial arm: the sampled search).
         params: gains (``gain`` is ``K_v`` [1/s]), feedback, damping and limits of eq. 19.
         evaluator: the AMSIP evaluator of the scene (the DP's S and distances).
         plan: a plan made before (a :class:`ReachResult` or its :class:`ReachMotion`); default: planned at

@@ -144,11 +144,11 @@ class ControllerParams(Checked):
         track_neighbours: mutants of each tracked peak bred into its search every frame, so that the target climbs
             its peak (:mod:`previewctl.control.peaks`); ``None`` (the default): 16 on spatial arms, 0 on planar
             arms, whose two genes the population already covers.
-        replan_period: ``horizon`` and planar ``reach``: time between two DP plans [s]; ``None`` (the default):
-            half the preview time.
-        plan_window: ``horizon`` and planar ``reach``: how far ahead [s] each DP plan looks; ``None`` (the
+        replan_period: ``horizon`` and coherent ``reach``: time between two plans [s] (the DP's, or the sampled
+            search's on a spatial arm); ``None`` (the default): half the preview time.
+        plan_window: ``horizon`` and coherent ``reach``: how far ahead [s] each plan looks; ``None`` (the
             default): to the last preview time, ``previews · preview_time``.
-        plan_latency: ``horizon`` and planar ``reach``: how long [s] a DP plan takes to arrive, as for a planner
+        plan_latency: ``horizon`` and coherent ``reach``: how long [s] a plan takes to arrive, as for a planner
             beside the control loop: a plan made from the state at ``t`` is followed from ``t + plan_latency``
             (the first one at once); at most the replan period. 0 (the default): within the cycle.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
