@@ -94,11 +94,11 @@ def test_a_ball_on_the_path_ends_every_motion_before_the_hand_reaches_it(panda: 
 
 
 @pytest.mark.parametrize(("field", "value", "message"), [
-    ("step", 0.0, r"roadmap step must be a finite number > 0, got 0\.0"),
-    ("beam", 0, r"roadmap beam must be an integer >= 1, got 0"),
-    ("children", 2.5, r"roadmap children must be an integer >= 1, got 2\.5"),
-    ("speed_share", 1.5, r"roadmap speed_share must be in \(0, 1\], got 1\.5"),
-    ("margin", -0.01, r"roadmap margin must be a finite number >= 0 \[m\], got -0\.01"),
+    ("step", 0.0, r"step must be > 0, got 0\.0"),
+    ("beam", 0, r"beam must be >= 1, got 0"),
+    ("children", 2.5, r"children must be an integer, got 2\.5"),
+    ("speed_share", 1.5, r"speed_share must lie in \(0, 1\], got 1\.5"),
+    ("margin", -0.01, r"margin must be >= 0, got -0\.01"),
 ])
 def test_options_name_the_bad_value(field: str, value: object, message: str) -> None:
     with pytest.raises(ParameterError, match=message):

@@ -40,8 +40,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
+from pydantic import Field
 
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
@@ -52,11 +54,12 @@ from previewctl.search.newton import NewtonRedundancy
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.result import ReachMotion
 from previewctl.types import Array, IntArray
+from previewctl.validation import Checked, Count, Finite, Integer, NonNegative, Positive, interval
 
 
 @dataclass(frozen=True)
-class RoadmapOptions:
-    """The beam's settings (see the module docstring).
+class RoadmapOptions(Checked):
+    """The beam's settings (see the module docstring); every field is checked when made.
 
     Attributes:
         step: ``Δt`` [s] between layers (the last step is shortened to end on the horizon).
@@ -71,34 +74,15 @@ class RoadmapOptions:
         seed: seed of the successors' draws.
     """
 
-    step: float = 0.25
-    substeps: int = 4
-    beam: int = 48
-    children: int = 12
-    speed_share: float = 0.6
-    margin: float = 0.01
-    spread: float = 0.15
-    goal_radius: float = 0.3
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        """Check the values.
-
-        Raises:
-            ParameterError: a value out of its range (the message names it and the range).
-        """
-        for name, low in (("step", 0.0), ("spread", 0.0), ("goal_radius", 0.0)):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > low):
-                raise ParameterError(f"roadmap {name} must be a finite number > {low:g}, got {value!r}")
-        if not (isinstance(self.margin, (int, float)) and math.isfinite(self.margin) and self.margin >= 0):
-            raise ParameterError(f"roadmap margin must be a finite number >= 0 [m], got {self.margin!r}")
-        if not (isinstance(self.speed_share, (int, float)) and 0 < self.speed_share <= 1):
-            raise ParameterError(f"roadmap speed_share must be in (0, 1], got {self.speed_share!r}")
-        for name, low in (("substeps", 0), ("beam", 1), ("children", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ParameterError(f"roadmap {name} must be an integer >= {low}, got {value!r}")
+    step: Positive = 0.25
+    substeps: Annotated[Integer, Field(ge=0)] = 4
+    beam: Count = 48
+    children: Count = 12
+    speed_share: Annotated[Finite, interval(0, 1, "(]")] = 0.6
+    margin: NonNegative = 0.01
+    spread: Positive = 0.15
+    goal_radius: Positive = 0.3
+    seed: Annotated[Integer, Field(ge=0)] = 0
 
 
 @dataclass(frozen=True)
