@@ -493,9 +493,9 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
 def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
     """Paper-literal ``reach`` (``coherent = false``) on a spatial arm. The straight sweep of a Newton redundancy
     map: each sample is the interpolated joint vector solved onto the hand target, so the move goes toward the peak
-    step by step. (Seeding every sample's Newton with the sample
-    before it, as was done, solved back onto the start: the sweep stood still and jumped to the peak at its last
-    step, so a route of the Panda almost never passed the speed test.)"""
+    step by step. (Seeding every sample's Newton with the sample before it, as was done, solved back onto the
+    start: the sweep stood still and jumped to the peak at its last step, so a route of the Panda almost never
+    passed the speed test.)"""
     q = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])
     tip = kinematics(panda, q[None, :]).tip_position[0]
     path = HandPath(np.array([tip, tip + 1e-9]), 5.0)  # the hand holds still
