@@ -93,10 +93,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
         if result.axes:
             written.append(str(plot_reach_maps(result, out / "reach_maps.png")))
         written.append(str(plot_reach_motion(result, out / "reach_motion.png")))
-        summary["files"] = [*written, str(out / "reach.json"), str(out / "reach_motion.npz")]
-        atomic_write_bytes(out / "reach.json", (json.dumps(summary, indent=2) + "\n").encode())
-        save_motion(result, out / "reach_motion.npz")
-        written += [str(out / "reach.json"), str(out / "reach_motion.npz")]
+        written = _write_results(out, summary, result.motion, written)
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
@@ -121,10 +118,7 @@ def _spatial(args: argparse.Namespace, scenario: Scenario) -> int:
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        summary["files"] = [str(out / "reach.json"), str(out / "reach_motion.npz")]
-        atomic_write_bytes(out / "reach.json", (json.dumps(summary, indent=2) + "\n").encode())
-        save_motion(found.motion, out / "reach_motion.npz")
-        written = summary["files"]
+        written = _write_results(out, summary, found.motion, [])
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
@@ -142,9 +136,18 @@ def _spatial(args: argparse.Namespace, scenario: Scenario) -> int:
     return 0
 
 
-def save_motion(result: ReachResult | ReachMotion, path: Path) -> Path:
-    """Write the best motion (``times`` [s], ``q`` [rad], ``S``, ``branch``) to an ``.npz`` file, atomically."""
-    motion = result.motion if isinstance(result, ReachResult) else result
+def _write_results(out: Path, summary: dict[str, Any], motion: ReachMotion, figures: list[str]) -> list[str]:
+    """Write ``reach.json`` (``summary``, its ``files`` listing every file written) and ``reach_motion.npz`` into
+    ``out``; the paths of ``figures`` and of both files, in that order."""
+    written = [*figures, str(out / "reach.json"), str(out / "reach_motion.npz")]
+    summary["files"] = list(written)
+    atomic_write_bytes(out / "reach.json", (json.dumps(summary, indent=2) + "\n").encode())
+    save_motion(motion, out / "reach_motion.npz")
+    return written
+
+
+def save_motion(motion: ReachMotion, path: Path) -> Path:
+    """Write a motion (``times`` [s], ``q`` [rad], ``S``, ``branch``) to an ``.npz`` file, atomically."""
     atomic_write(path, lambda f: np.savez(f, times=motion.times, q=motion.q, S=motion.S, branch=motion.branch))
     return path
 

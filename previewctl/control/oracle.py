@@ -73,7 +73,8 @@ HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, ma
 :data:`HORIZON_STEP` of the window)."""
 HORIZON_ROADMAP = RoadmapOptions(beam=16, children=8)
 """The sampled search ``horizon`` (and coherent ``reach``) replans a spatial arm with: a third of the oracle's beam and
-two thirds of its moves per node, for cost (a 6 s plan costs about 0.7 s of CPU on the Panda); not tuned further."""
+two thirds of its moves per node, for cost (a 6 s plan on the Panda bench scenes costs 0.58 s of CPU at the median,
+0.95 s at the 95th percentile); not tuned further."""
 HORIZON_STEP = 0.16
 """[s] the DP's time step in ``horizon``'s plans (the oracle's 8 s / 50 steps on the bench scenes) ..."""
 HORIZON_MAX_STEPS = 24
