@@ -1,4 +1,5 @@
-"""Plain helpers the test modules share: rotations, a planar4 scenario document, a random URDF chain.
+"""Plain helpers the test modules share: rotations, a planar4 scenario document, a scenario under the paper's
+eq. 19, a random URDF chain.
 
 Fixtures live in ``conftest.py``; functions that tests call directly live here and are imported as
 ``from helpers import rot_z`` (pytest puts ``tests/`` on ``sys.path``).
@@ -6,12 +7,15 @@ Fixtures live in ``conftest.py``; functions that tests call directly live here a
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from hypothesis import strategies as st
 from numpy.typing import NDArray
+
+from previewctl.sim.scenario import Scenario
 
 Array = NDArray[np.float64]
 
@@ -47,6 +51,12 @@ def tiny_planar_toml(name: str, sections: str) -> str:
     no obstacle, followed by ``sections`` (more TOML: ``[timing]``, ``[output]``, ``[[obstacles]]`` ...)."""
     return (f'name = "{name}"\n[robot]\nsource = "planar4"\nq0 = {PLANAR_Q0}\n'
             f"[path]\nwaypoints = [{PLANAR_START}, [1.8069, 1.0417]]\nduration = 1.0\n{sections}")
+
+
+def pseudoinverse(scenario: Scenario) -> Scenario:
+    """``scenario`` with its controller executed by the paper's eq. 19 instead of the QP."""
+    params = dataclasses.replace(scenario.controller.params, execution="pseudoinverse")
+    return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
 
 
 def planar_doc(**sections: Any) -> dict[str, Any]:

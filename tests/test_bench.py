@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from distributed import LocalCluster
-from helpers import planar_doc
+from helpers import planar_doc, pseudoinverse
 
 from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.metrics import run_metrics
@@ -26,7 +26,7 @@ from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS
 from previewctl.errors import ParameterError, UnknownNameError
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.loop import simulate
-from previewctl.sim.scenario import Scenario, scenario_from_dict
+from previewctl.sim.scenario import scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORT = SceneSettings(duration=3.0)
@@ -34,12 +34,6 @@ SHORT = SceneSettings(duration=3.0)
 
 
 # ------------------------------------------------------------------------------------ scenes
-
-
-def pseudoinverse(scenario: Scenario) -> Scenario:
-    """``scenario`` with its controller executed by the paper's eq. 19 instead of the QP."""
-    params = dataclasses.replace(scenario.controller.params, execution="pseudoinverse")
-    return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
 
 
 def test_planar_scene_is_deterministic_crosses_the_links_and_passes_its_witness(tmp_path: Path) -> None:
