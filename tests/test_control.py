@@ -490,20 +490,27 @@ def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
 
-def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
-    """Paper-literal ``reach`` (``coherent = false``) on a spatial arm. The straight sweep of a Newton redundancy
-    map: each sample is the interpolated joint vector solved onto the hand target, so the move goes toward the peak
-    step by step. (Seeding every sample's Newton with the sample before it, as was done, solved back onto the
-    start: the sweep stood still and jumped to the peak at its last step, so a route of the Panda almost never
-    passed the speed test.)"""
+def held_hand_and_peak(panda: Robot) -> tuple[Array, Array, HandPath, Any, Array]:
+    """A Panda configuration ``q``, its hand ``tip`` held still by ``path``, the Newton map ``red`` and a ``peak``:
+    ``q`` moved by 0.4-0.6 rad on four joints and solved back onto the hand (within the speed limits over 1 s)."""
     q = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])
     tip = kinematics(panda, q[None, :]).tip_position[0]
     path = HandPath(np.array([tip, tip + 1e-9]), 5.0)  # the hand holds still
     red = redundancy_map(panda)
     peak, reachable = red.solve(q[None, :] + np.array([0.6, 0.0, 0.4, 0.0, -0.5, 0.0, 0.3]), np.zeros(1, int), tip)
     assert reachable[0]
+    return q, tip, path, red, peak[0]
+
+
+def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
+    """Paper-literal ``reach`` (``coherent = false``) on a spatial arm. The straight sweep of a Newton redundancy
+    map: each sample is the interpolated joint vector solved onto the hand target, so the move goes toward the peak
+    step by step. (Seeding every sample's Newton with the sample before it, as was done, solved back onto the
+    start: the sweep stood still and jumped to the peak at its last step, so a route of the Panda almost never
+    passed the speed test.)"""
+    q, tip, path, red, peak = held_hand_and_peak(panda)
     params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=1.0, settle_frames=1, coherent=False)
-    best = FakeCandidate(np.zeros(7), 0, peak[0], 100.0)
+    best = FakeCandidate(np.zeros(7), 0, peak, 100.0)
     searches = [FakePeaksGA(best, [best]), FakePeaksGA(best, [best])]
     controller = ReachController(panda, params, Evaluator(panda), searches, red)
     assert controller.planner is None  # the paper-literal mode: straight sweeps
@@ -512,7 +519,7 @@ def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
     assert route is not None and route.complete
     samples = controller.sweep_samples + 1
     moved = np.abs(wrapped_difference(panda, q, route.lead))
-    whole = np.abs(wrapped_difference(panda, q, peak[0]))
+    whole = np.abs(wrapped_difference(panda, q, peak))
     assert np.all(moved <= panda.velocity_limits / samples + 1e-12)  # one step within the speed limits
     assert np.linalg.norm(moved) == pytest.approx(np.linalg.norm(whole) / samples, rel=0.3)  # a share of the way
     np.testing.assert_allclose(kinematics(panda, route.lead[None, :]).tip_position[0], tip, atol=1e-4)
@@ -521,14 +528,9 @@ def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
 def test_coherent_reach_on_a_spatial_arm_plans_to_the_latest_peak_by_the_sampled_search(panda: Robot) -> None:
     """A peak 0.6 rad away (within the speed limits over 1 s) at both preview times, with the hand held still: the
     sampled search's goal is the peak of the later time, and its motion ends there, near the peak."""
-    q = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.7])
-    tip = kinematics(panda, q[None, :]).tip_position[0]
-    path = HandPath(np.array([tip, tip + 1e-9]), 5.0)
-    red = redundancy_map(panda)
-    peak, reachable = red.solve(q[None, :] + np.array([0.6, 0.0, 0.4, 0.0, -0.5, 0.0, 0.3]), np.zeros(1, int), tip)
-    assert reachable[0]
+    q, tip, path, red, peak = held_hand_and_peak(panda)
     params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=1.0, settle_frames=1)
-    best = FakeCandidate(np.zeros(7), 0, peak[0], 100.0)
+    best = FakeCandidate(np.zeros(7), 0, peak, 100.0)
     controller = ReachController(panda, params, Evaluator(panda), [FakePeaksGA(best, [best])] * 2, red)
     planner = controller.planner
     assert planner is not None and planner.window == pytest.approx(2.0)
@@ -536,10 +538,10 @@ def test_coherent_reach_on_a_spatial_arm_plans_to_the_latest_peak_by_the_sampled
     assert controller.route is None and planner.goal == (1, 0)
     goal = controller.goal
     assert goal is not None and goal[0] == 1
-    np.testing.assert_allclose(goal[1], peak[0], atol=1e-12)
+    np.testing.assert_allclose(goal[1], peak, atol=1e-12)
     motion = planner.motion
     assert motion is not None and motion.times[-1] == pytest.approx(2.0)
-    assert np.linalg.norm(motion.q[-1] - peak[0]) <= planner.roadmap.goal_radius
+    assert np.linalg.norm(motion.q[-1] - peak) <= planner.roadmap.goal_radius
     np.testing.assert_allclose(kinematics(panda, motion.q[-1][None, :]).tip_position[0], tip, atol=1e-4)
 
 
