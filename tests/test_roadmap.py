@@ -7,13 +7,16 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from helpers import pseudoinverse
 
 from previewctl.control.factory import make_controller
 from previewctl.control.oracle import HORIZON_ROADMAP, OracleController
-from previewctl.errors import ConfigurationError, ParameterError
+from previewctl.control.reach import ReachController
+from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
+from previewctl.kinematics import hand_placement
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
@@ -21,7 +24,7 @@ from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.roadmap import RoadmapOptions, RoadmapResult, roadmap_over_time
 from previewctl.sim.loop import simulate
-from previewctl.sim.scenario import Scenario, load_scenario
+from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 
@@ -133,7 +136,45 @@ def test_a_goal_beyond_the_speed_limits_is_not_reached(crossing: Scenario) -> No
     assert result.motion.times[-1] == pytest.approx(1.5)
 
 
-def test_an_arm_with_continuous_joints_is_refused(kinova: Robot) -> None:
-    path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
-    with pytest.raises(ConfigurationError, match=r"without continuous joints \(robot 'kinova' has nq = 9, nv = 6\)"):
-        roadmap_over_time(kinova, Evaluator(kinova), path, kinova.neutral(), 1.0)
+def hand_position(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """The hand's position [m] at configuration ``q``."""
+    return hand_placement(robot, q, robot.model.createData())[0]
+
+
+@pytest.fixture(scope="module")
+def kinova_turn(kinova: Robot) -> Scenario:
+    """Kinova Jaco 2 (continuous joints): the hand moves 0.12 m in 2 s where the base joint turns through ±π."""
+    start = np.array([np.pi - 0.15, 2.9, 0.85, 1.43, 3.25, 2.59])
+    turned = start + np.array([0.3, 0, 0, 0, 0, 0])
+    ends = [hand_position(kinova, kinova.configuration_from_angles(a)).tolist() for a in (start, turned)]
+    q0 = kinova.configuration_from_angles(start).tolist()
+    document = {"name": "kinova_turn", "robot": {"source": "kinova", "q0": q0},
+                "path": {"waypoints": ends, "duration": 2.0}, "obstacles": [], "controller": {"name": "oracle"},
+                "timing": {"dt": 0.01, "duration": 2.0}, "output": {"gif": False}}
+    return scenario_from_dict(document, source="kinova_turn")
+
+
+def test_an_arm_with_continuous_joints_turns_through_pi(kinova_turn: Scenario) -> None:
+    """The moves are taken on the joint angles: the base joint's (cos, sin) pair turns through ±π within the speed
+    limits, with the hand on the path, and the oracle follows that motion."""
+    robot, opts = kinova_turn.robot, RoadmapOptions(beam=8, children=4)
+    evaluator = Evaluator(robot, kinova_turn.scene, kinova_turn.index, kinova_turn.potential)
+    result = roadmap_over_time(robot, evaluator, kinova_turn.path, kinova_turn.q0, 2.0, opts)
+    assert result.exists
+    motion = result.motion
+    robot.check_configurations(motion.q)  # every continuous joint a unit (cos, sin) pair
+    base = robot.angles_of(motion.q)[:, 0]
+    assert base[0] > 2.9 and base[-1] < -2.9  # through ±π, not back round the circle
+    sub = opts.step / (opts.substeps + 1)
+    steps = np.array([pin.difference(robot.model, a, b) for a, b in zip(motion.q[:-1], motion.q[1:], strict=True)])
+    assert np.all(np.abs(steps) <= robot.velocity_limits * opts.speed_share * sub + 1e-9)
+    for t, q in zip(motion.times, motion.q, strict=True):
+        assert np.linalg.norm(hand_position(robot, q) - kinova_turn.path.position(float(t))) < 1e-4
+    summary = simulate(kinova_turn, "oracle").summary()
+    assert not summary["collided"] and summary["max_hand_error"] < 1e-3
+
+
+def test_coherent_reach_plans_with_the_search_on_an_arm_with_continuous_joints(kinova_turn: Scenario) -> None:
+    law = make_controller(kinova_turn, name="reach").law
+    assert isinstance(law, ReachController) and law.planner is not None
+    assert law.planner.roadmap == HORIZON_ROADMAP

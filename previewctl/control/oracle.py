@@ -11,7 +11,8 @@ preview controller whose imaginary arm is the oracle's configuration ``q*(t + t_
 
 with ``q*`` the DP's samples interpolated linearly in time (unwrapped along the motion, so the
 difference is taken without wrapping: the elbow changes branch where the plan does, at the
-stretched wrist) and ``q̇*`` its slope (feed-forward). ``K_v`` is ``ControllerParams.gain``.
+stretched wrist) and ``q̇*`` its slope (feed-forward); a continuous joint's angle stands for its (cos, sin)
+pair. ``K_v`` is ``ControllerParams.gain``.
 
 Its purpose is comparison: any run can be set against what was possible in the same scene. When
 the DP finds no motion to the end, the oracle follows the best motion to the dead end and then holds
@@ -44,6 +45,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.params import ControllerParams
@@ -156,6 +158,7 @@ class OracleController:
         self.goal: tuple[int, int] | None = None
         self._pending: tuple[float, ReachMotion, ReachResult | None] | None = None  # (from when [s], motion, result)
         self._gain = gain_vector(params.gain, robot.nv, "gain")
+        self._angles: tuple[ReachMotion, ReachMotion] | None = None  # (a plan, it in joint coordinates)
 
     @classmethod
     def horizon(cls, robot: Robot, params: ControllerParams, evaluator: Evaluator) -> OracleController:
@@ -222,6 +225,19 @@ class OracleController:
         """Whether a ``horizon`` plan is due at ``t`` [s] (the oracle plans once)."""
         return self.window is not None and t >= self._next_plan
 
+    def _coordinates(self, motion: ReachMotion) -> ReachMotion:
+        """``motion`` in joint coordinates ``(nv)``: itself on an arm whose configuration is its joint angles;
+        otherwise each continuous joint's angle in place of its (cos, sin) pair, unwrapped along the motion (so
+        the linear interpolation between samples is the search's move), made once per plan."""
+        if self.robot.joints.vector_space:
+            return motion
+        if self._angles is None or self._angles[0] is not motion:
+            angles = self.robot.angles_of(motion.q)
+            turning = self.robot.joints.continuous
+            angles[:, turning] = np.unwrap(angles[:, turning], axis=0)
+            self._angles = (motion, replace(motion, q=angles))
+        return self._angles[1]
+
     def follow(self, t: float, q: Array, state: ControlState, targets: Array | None = None,
                values: Array | None = None) -> tuple[Array, ControlInfo]:
         """Eq. 19 pulled toward the current plan at ``t + lookahead``; ``targets``/``values`` (default: that
@@ -231,8 +247,10 @@ class OracleController:
         if motion is None:
             raise ConfigurationError(f"{self.name}: follow() before any plan was made")
         t_ref = t + self.lookahead
-        q_ref = motion.at(t_ref)
-        v = motion.velocity(t_ref) + self._gain * (q_ref - np.asarray(q, dtype=float))
+        coordinates = self._coordinates(motion)
+        a_ref = coordinates.at(t_ref)
+        q_ref = a_ref if self.robot.joints.vector_space else self.robot.configuration_from_angles(a_ref)
+        v = coordinates.velocity(t_ref) + self._gain * pin.difference(self.robot.model, q, q_ref)
         S_ref = float(np.interp(t_ref, motion.times, motion.S)) if motion.times.size else float("nan")
         if targets is None or values is None:
             targets, values = q_ref[None, :], np.array([S_ref])

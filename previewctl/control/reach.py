@@ -85,11 +85,11 @@ class ReachController:
     have run ``settle_frames`` generations (their peaks are not worth heading for yet). The GA runs one generation per
     camera frame; only the plans are periodic.
 
-    **Coherent mode on spatial arms** (without continuous joints): the same, with the sampled forward search of
+    **Coherent mode on spatial arms**: the same, with the sampled forward search of
     :mod:`previewctl.search.roadmap` in place of the DP (``horizon``'s search on a spatial arm); a peak is reached
     when a node of the search comes within ``goal_radius`` of it. On the held-out Panda bench scenes (scene seeds 1
     and 2, 40 scenes, QP execution, 6 s window) this took ``reach`` from 34 to 37 of 40 at 1 mm. The straight
-    sweeps remain the routes of the paper-literal mode (``coherent = false``) and of arms with continuous joints.
+    sweeps remain the routes of the paper-literal mode (``coherent = false``).
     """
 
     name = "reach"
@@ -124,8 +124,8 @@ class ReachController:
         # another route beats it by the hysteresis margin
         self._keep = (robot.nv - 1,) if coherent else ()
         # coherent, planar arms of up to 2 genes: the moves are planned by the reachability DP over the window;
-        # coherent, spatial arms without continuous joints: by the sampled search
-        planned = robot.nq <= 4 if robot.planar is not None else robot.nq == robot.nv
+        # coherent, spatial arms: by the sampled search
+        planned = robot.planar is None or robot.nq <= 4
         self._planner = OracleController.horizon(robot, params, evaluator) if params.coherent and planned else None
         self._peaks: list[tuple[float, Array, Array]] = []  # the last frame's (t_i [s], peaks, their S) per level
         self._goal: tuple[int, Array, float] | None = None  # (level, configuration, S) of the last planned goal

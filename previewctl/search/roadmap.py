@@ -10,7 +10,9 @@ time instead, reading the whole future as the planar DP does (non-causal, offlin
   ``δ_j`` uniform in ``±v_j Δt`` (``v_j`` the joint speed limit x ``speed_share``), the first one ``δ = 0``
   (plain tracking). At every sub-step ``s`` the move's linear interpolation ``q + (s / (substeps + 1)) δ``
   is projected onto the hand target ``r_d(t)`` of its time by the Newton redundancy map (started from that
-  interpolated configuration), so each successor is a sampled motion with the hand on the path.
+  interpolated configuration), so each successor is a sampled motion with the hand on the path. Moves are
+  taken in joint coordinates (``nv``): a continuous joint's angle, unwrapped along the motion, in place of its
+  (cos, sin) pair.
 * **Feasible moves.** Every sample is reachable (the hand within the map's tolerance of the path), within
   the joint limits (the map clips), at least ``margin`` [m] from every obstacle at its time (exact
   distances, Coal through Pinocchio), and consecutive samples differ by at most ``v_j Δt / (substeps + 1)``
@@ -45,7 +47,7 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field
 
-from previewctl.errors import ConfigurationError, ParameterError
+from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -53,6 +55,7 @@ from previewctl.search.genes import joint_distance
 from previewctl.search.newton import NewtonRedundancy
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.result import ReachMotion
+from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array, IntArray
 from previewctl.validation import Checked, Count, Finite, Integer, NonNegative, Positive, interval
 
@@ -123,6 +126,7 @@ class _Layer:
     parent: IntArray  # (B,) index in the previous layer
     samples: Array  # (B, substeps + 1, nq) the checked samples of the step, the node itself last
     S: Array  # (B, substeps + 1) their S
+    angles: Array  # (B, nv) the nodes' joint coordinates, continuous joints unwrapped along the motion
 
     @property
     def q(self) -> Array:
@@ -138,12 +142,9 @@ def roadmap_over_time(robot: Robot, evaluator: Evaluator, path: HandPath, q0: Ar
 
     Raises:
         ParameterError: a non-positive or non-finite duration.
-        ConfigurationError: a bad ``q0``, or an arm with continuous joints (its moves are taken in joint space).
+        ConfigurationError: a bad ``q0``.
     """
     opts = options or RoadmapOptions()
-    if robot.nq != robot.nv:
-        raise ConfigurationError(f"the sampled reachability search needs an arm without continuous joints (robot "
-                                 f"{robot.name!r} has nq = {robot.nq}, nv = {robot.nv}): its moves are joint-space")
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise ParameterError(f"the roadmap's duration must be a finite number > 0 [s], got {duration!r}")
     Q0, _ = robot.check_configurations(q0)
@@ -152,7 +153,7 @@ def roadmap_over_time(robot: Robot, evaluator: Evaluator, path: HandPath, q0: Ar
     steps = max(1, math.ceil(duration / opts.step - 1e-9))
     times = t_start + np.minimum(np.arange(steps + 1) * opts.step, duration)
     first = evaluator(Q0, t_start)
-    layers = [_Layer(np.array([np.inf]), np.zeros(1, dtype=int), Q0[:, None], first.S[:, None])]
+    layers = [_Layer(np.array([np.inf]), np.zeros(1, dtype=int), Q0[:, None], first.S[:, None], robot.angles_of(Q0))]
     evaluations = 1
     wanted = [g for g in goals if len(g.q)]
     for k in range(steps):
@@ -222,11 +223,12 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
     delta = rng.uniform(-1.0, 1.0, (len(parent), robot.nv)) * reach
     delta[:: opts.children] = 0.0  # plain tracking
     if aim is not None and opts.children > 1:  # straight toward the goal, arriving at its time
-        toward = (aim[1][None, :] - layer.q) * (h / max(aim[0] - t0, h))
-        delta[1 :: opts.children] = np.clip(toward, -reach, reach)
-    start = layer.q[parent]
+        goal = np.repeat(robot.angles_of(aim[1][None, :]), len(layer.angles), axis=0)
+        toward = _next_to(robot, goal, layer.angles) - layer.angles
+        delta[1 :: opts.children] = np.clip(toward * (h / max(aim[0] - t0, h)), -reach, reach)
+    start = layer.angles[parent]
     end = start + delta
-    previous, alive = start, np.ones(len(parent), dtype=bool)
+    previous, alive = start.copy(), np.ones(len(parent), dtype=bool)
     samples = np.empty((len(parent), opts.substeps + 1, robot.nq))
     evaluations = 0
     sample_S = np.full((len(parent), opts.substeps + 1), -np.inf)
@@ -235,8 +237,10 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
         t = t0 + fraction * h
         rows = np.flatnonzero(alive)
         guess = start[rows] + fraction * (end[rows] - start[rows])
-        Q, reachable = red.solve(guess, np.zeros(len(rows), dtype=int), path.position(t), q_seed=guess)
-        within = np.all(np.abs(Q - previous[rows]) <= reach / (opts.substeps + 1) + 1e-9, axis=1)
+        guess_q = robot.configurations_from_angles(guess)
+        Q, reachable = red.solve(guess, np.zeros(len(rows), dtype=int), path.position(t), q_seed=guess_q)
+        angles = _next_to(robot, robot.angles_of(Q), guess)
+        within = np.all(np.abs(angles - previous[rows]) <= reach / (opts.substeps + 1) + 1e-9, axis=1)
         check = rows[reachable & within]
         ok = np.zeros(len(parent), dtype=bool)
         if check.size:
@@ -247,14 +251,23 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
             sample_S[check, s - 1] = found.S
         alive &= ok
         samples[rows, s - 1] = Q
-        previous = samples[:, s - 1]
+        previous[rows] = angles
         if not alive.any():
             return None, evaluations
     rows = np.flatnonzero(alive)
     value = np.minimum(layer.value[parent[rows]], sample_S[rows].min(axis=1))
-    kept = _spread_out(samples[rows, -1], value, opts)
+    kept = _spread_out(previous[rows], value, opts)
     rows = rows[kept]
-    return _Layer(value[kept], parent[rows], samples[rows], sample_S[rows]), evaluations
+    return _Layer(value[kept], parent[rows], samples[rows], sample_S[rows], previous[rows]), evaluations
+
+
+def _next_to(robot: Robot, angles: Array, reference: Array) -> Array:
+    """Joint coordinates ``angles`` ``(B, nv)`` with each continuous joint's angle shifted by whole turns to within
+    π of ``reference`` (the other coordinates unchanged): the motion's angles stay unwrapped."""
+    turning = robot.joints.continuous
+    if turning.any():
+        angles[:, turning] = reference[:, turning] + wrap_angle(angles[:, turning] - reference[:, turning])
+    return angles
 
 
 def _spread_out(Q: Array, value: Array, opts: RoadmapOptions) -> IntArray:
