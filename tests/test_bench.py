@@ -204,9 +204,9 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
         (0, "qp"), (0, "multi"), (0, "oracle"), (1, "multi"), (2, "multi")]
 
 
-@pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "multi"])
+@pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "single"])
 def test_the_unseeded_controllers_give_one_run_for_every_seed(name: str) -> None:
-    """What lets the matrix run them for seed 0 only; ``multi`` shows that the scene tells the seeds apart."""
+    """What lets the matrix run them for seed 0 only; ``single`` shows that the scene tells the seeds apart."""
     disc = {"name": "disc", "shape": "cylinder", "radius": 0.1, "length": 0.4,
             "motion": {"type": "constant_velocity", "position": [1.3, 0.9, 0.0], "velocity": [0.0, -0.1, 0.0]}}
     scenario = scenario_from_dict(planar_doc(obstacles=[disc], timing={"duration": 1.0}))

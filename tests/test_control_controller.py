@@ -134,7 +134,7 @@ def test_any_loop_rate_tracks_the_path_with_one_generation_per_frame(dt: float) 
 
 
 def test_seeds_reproduce_and_a_generator_is_used_as_given() -> None:
-    scenario = planar_scenario("multi")
+    scenario = planar_scenario("single")
 
     def run(**kwargs: Any) -> Array:
         ctrl, q = pc.make_controller(scenario, **kwargs), np.array(Q0)

@@ -164,9 +164,10 @@ def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar4: Robo
 
 def _short(name: str, coherent: bool, duration: float = 3.0, execution: str = "qp", step_correction: bool = True
            ) -> RunResult:
+    """A short staircase run; ``multi``'s imaginary arms on their tracked peaks (``imaginary_arms = "peaks"``)."""
     scenario = canonical_scenario("paper_planar")
     params = dataclasses.replace(scenario.controller.params, coherent=coherent, execution=execution,
-                                 step_correction=step_correction)
+                                 step_correction=step_correction, imaginary_arms="peaks")
     scenario = dataclasses.replace(
         scenario,
         controller=ControllerSpec(name, params),
@@ -212,8 +213,10 @@ def test_coherent_targets_never_jump_between_peaks_on_the_fitted_scene() -> None
     0.5 rad between two frames: the peaks keep their identity while the target and the object move.
     (The paper-literal rule jumps between near-tied peaks; measured in the README.)"""
     scenario = canonical_scenario("paper_fitted")
-    scenario = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=10.0))
-    run = simulate(scenario, "multi", seed=0)
+    params = dataclasses.replace(scenario.controller.params, imaginary_arms="peaks")
+    scenario = dataclasses.replace(scenario, controller=ControllerSpec("multi", params),
+                                   timing=dataclasses.replace(scenario.timing, duration=10.0))
+    run = simulate(scenario, seed=0)
     targets = np.asarray(run.targets)
     step = np.abs(np.diff(targets, axis=0))
     step = np.minimum(step, 2 * np.pi - step)  # planar4's joints turn a full circle

@@ -78,9 +78,12 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
 
 
 def test_short_multi_preview_run_tracks_without_collision() -> None:
-    """The first 5 s of the paper scene with three-preview control: on the path, no contact."""
+    """The first 5 s of the paper scene with three-preview control on the GA's tracked peaks: on the path, no
+    contact."""
     scenario = with_controller(canonical_scenario("paper_planar"), "multi")
-    short = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=5.0))
+    params = dataclasses.replace(scenario.controller.params, imaginary_arms="peaks")
+    short = dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params),
+                                timing=dataclasses.replace(scenario.timing, duration=5.0))
     result = simulate(short, "multi")
     summary = result.summary()
     assert not summary["collided"]

@@ -6,6 +6,10 @@ over the whole future, a reference for the others; on spatial arms both plan by 
 :mod:`previewctl.search.roadmap`). Every one is
 executed through the constrained QP unless ``params.execution = "pseudoinverse"``; ``qp`` always is.
 
+Coherent ``multi`` with ``imaginary_arms = "route"`` (the default) is built as
+:class:`~previewctl.control.reach.ReachController` with ``blend=True`` wherever that plans its moves (spatial arms,
+planar arms of up to 4 joints): eq. 21 on the planned route's configurations.
+
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a
 ``numpy.random.Generator``, never from numpy's global state. ``seed`` is an ``int`` (the generator is
 ``np.random.default_rng(seed)``) or a ``Generator`` you own; each imaginary arm gets its own child
@@ -229,8 +233,9 @@ def build_law(
     factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)
     streams = rng.spawn(count)
     searches = [factory(i, streams[i]) for i in range(count)]
-    if spec.name == "reach":
-        return ReachController(robot, params, evaluator, searches, redundancy_map(robot))
+    routed = spec.name == "multi" and params.imaginary_arms == "route" and ReachController.plans(robot, params)
+    if spec.name == "reach" or routed:
+        return ReachController(robot, params, evaluator, searches, redundancy_map(robot), blend=spec.name == "multi")
     return PreviewController(robot, params, spec.name, searches, evaluator)
 
 

@@ -201,7 +201,7 @@ class OracleController:
     def _made(self, t: float, motion: ReachMotion, result: ReachResult | None,
               goal: tuple[int, int] | None = None) -> ReachMotion:
         """A plan made at ``t`` [s]: followed from now on, or from ``t + latency`` once there is one to follow."""
-        self._arrive(t)
+        self.arrive(t)
         self.planned, self.goal = result, goal
         if self.latency > 0 and self.motion is not None:
             self._pending = (t + self.latency, motion, result)
@@ -209,7 +209,7 @@ class OracleController:
             self.motion, self.result, self._pending = motion, result, None
         return motion
 
-    def _arrive(self, t: float) -> None:
+    def arrive(self, t: float) -> None:
         """Follow the pending plan from ``t`` [s] on if it has arrived by then."""
         if self._pending is not None and t >= self._pending[0] - 1e-9:
             _, self.motion, self.result = self._pending
@@ -224,6 +224,18 @@ class OracleController:
     def due(self, t: float) -> bool:
         """Whether a ``horizon`` plan is due at ``t`` [s] (the oracle plans once)."""
         return self.window is not None and t >= self._next_plan
+
+    def point(self, t: float) -> tuple[Array, Array, float]:
+        """The plan being followed at time ``t`` [s]: its configuration ``(nq,)``, velocity ``(nv,)`` [rad/s] and S
+        (linear between samples; the first or last sample, at rest, outside the plan)."""
+        motion = self.motion
+        if motion is None:
+            raise ConfigurationError(f"{self.name}: no plan was made yet (plan() or command() makes one)")
+        coordinates = self._coordinates(motion)
+        angles = coordinates.at(t)
+        q = angles if self.robot.joints.vector_space else self.robot.configuration_from_angles(angles)
+        S = float(np.interp(t, motion.times, motion.S)) if motion.times.size else float("nan")
+        return q, coordinates.velocity(t), S
 
     def _coordinates(self, motion: ReachMotion) -> ReachMotion:
         """``motion`` in joint coordinates ``(nv)``: itself on an arm whose configuration is its joint angles;
@@ -242,16 +254,9 @@ class OracleController:
                values: Array | None = None) -> tuple[Array, ControlInfo]:
         """Eq. 19 pulled toward the current plan at ``t + lookahead``; ``targets``/``values`` (default: that
         point of the plan and its S) are what the log records as the imaginary arms."""
-        self._arrive(t)
-        motion = self.motion
-        if motion is None:
-            raise ConfigurationError(f"{self.name}: follow() before any plan was made")
-        t_ref = t + self.lookahead
-        coordinates = self._coordinates(motion)
-        a_ref = coordinates.at(t_ref)
-        q_ref = a_ref if self.robot.joints.vector_space else self.robot.configuration_from_angles(a_ref)
-        v = coordinates.velocity(t_ref) + self._gain * pin.difference(self.robot.model, q, q_ref)
-        S_ref = float(np.interp(t_ref, motion.times, motion.S)) if motion.times.size else float("nan")
+        self.arrive(t)
+        q_ref, rate, S_ref = self.point(t + self.lookahead)
+        v = rate + self._gain * pin.difference(self.robot.model, q, q_ref)
         if targets is None or values is None:
             targets, values = q_ref[None, :], np.array([S_ref])
         return track(self.robot, t, q, state, v, self.params, targets, values)

@@ -41,6 +41,9 @@ constrained QP: the velocity-damper method of NEO, the peer baseline), ``gradien
 ExecutionMode = Literal["qp", "pseudoinverse"]
 """How a controller's eq. 19 command is executed: ``qp`` (a constrained QP with joint limits and collision velocity
 dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""
+ImaginaryArms = Literal["route", "peaks"]
+"""Where coherent ``multi`` puts its imaginary arms: on the route planned as ``reach`` plans it (``route``: where the
+plan puts the arm at the preview times), or each on one tracked GA peak (``peaks``, :mod:`previewctl.control.peaks`)."""
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
@@ -135,22 +138,28 @@ class ControllerParams(Checked):
         fd_step: finite-difference step of ``∇S`` [rad].
         ga_options: further :class:`~previewctl.search.ga.GAOptions` fields, as ``(name, value)`` pairs.
         with_gradient: ``single``/``multi`` also add ``K_g ∇S`` (``gradient_gain``) to ``v``.
-        coherent: ``single``/``multi`` keep each imaginary arm on one tracked peak of the arm's own elbow
-            branch and ramp the pull in (:mod:`previewctl.control.peaks`); ``False`` is the paper's
-            literal eq. 20/21 (each frame's argmax of each imaginary arm, any branch).
+        coherent: ``single`` keeps its imaginary arm on one tracked peak of the arm's own elbow branch and ramps
+            the pull in (:mod:`previewctl.control.peaks`); ``multi`` puts its imaginary arms where
+            ``imaginary_arms`` says; ``reach`` plans its moves over a window. ``False`` is the paper's literal
+            eq. 20/21 (each frame's argmax of each imaginary arm, any branch) and ``reach``'s straight sweeps.
+        imaginary_arms: coherent ``multi``'s imaginary arms: ``"route"`` (the default), where the route that
+            coherent ``reach`` plans puts the arm at the preview times; ``"peaks"``, each on one tracked peak (as
+            ``single``). ``"route"`` needs an arm the planner covers (spatial, or planar with at most 4 joints): on
+            other arms ``multi`` uses the tracked peaks.
         hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
         track_neighbours: mutants of each tracked peak bred into its search every frame, so that the target climbs
             its peak (:mod:`previewctl.control.peaks`); ``None`` (the default): 16 on spatial arms, 0 on planar
             arms, whose two genes the population already covers.
-        replan_period: ``horizon`` and coherent ``reach``: time between two plans [s] (the DP's, or the sampled
-            search's on a spatial arm); ``None`` (the default): half the preview time.
-        plan_window: ``horizon`` and coherent ``reach``: how far ahead [s] each plan looks; ``None`` (the
+        replan_period: ``horizon``, coherent ``reach`` and ``multi``: time between two plans [s] (the DP's, or the
+            sampled search's on a spatial arm); ``None`` (the default): half the preview time.
+        plan_window: ``horizon``, coherent ``reach`` and ``multi``: how far ahead [s] each plan looks; ``None`` (the
             default): to the last preview time, ``previews · preview_time``.
-        plan_latency: ``horizon`` and coherent ``reach``: how long [s] a plan takes to arrive, as for a planner
-            beside the control loop: a plan made from the state at ``t`` is followed from ``t + plan_latency``
-            (the first one at once); at most the replan period. 0 (the default): within the cycle.
+        plan_latency: ``horizon``, coherent ``reach`` and ``multi``: how long [s] a plan takes to arrive, as for a
+            planner beside the control loop: a plan made from the state at ``t`` is followed from
+            ``t + plan_latency`` (the first one at once); at most the replan period. 0 (the default): within the
+            cycle.
         execution: how the command is executed, one of :data:`EXECUTION_MODES`.
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
@@ -181,6 +190,7 @@ class ControllerParams(Checked):
     ga_options: tuple[tuple[Text, Any], ...] = field(default=())
     with_gradient: Flag = False
     coherent: Flag = True
+    imaginary_arms: ImaginaryArms = "route"
     hysteresis: NonNegative = 0.2
     settle_frames: Count = 15
     track_radius: Positive = 0.5

@@ -24,7 +24,8 @@ follows one peak per imaginary arm:
 * a better peak elsewhere never takes over: the pull of eq. 21 is a descent of the joint-space
   distance projected on the self-motion manifold, which stalls between basins (measured on
   ``planar_free``: a switch to a peak twice as good across ``q2 = 0`` left the arm stuck at
-  ``S ≈ 300``). Changing basin deliberately is the job of ``reach``, which checks the move;
+  ``S ≈ 300``). Changing basin deliberately is the job of a planned route (``reach``, and coherent ``multi``
+  where the route is planned: :class:`~previewctl.control.reach.ReachController`), which checks the move;
 * after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
   camera frames, so the arm does not lunge at a target the search has not settled on.
 

@@ -64,7 +64,10 @@ def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int
 
 
 class PreviewController:
-    """``single`` (eq. 20) and ``multi`` (eq. 21) preview control.
+    """``single`` (eq. 20) and ``multi`` (eq. 21) preview control on the imaginary arms' own optima: ``single``
+    always; ``multi`` in the paper-literal mode, with ``imaginary_arms = "peaks"``, and on planar arms of more than 4
+    joints (otherwise coherent ``multi`` blends the configurations of a planned route:
+    :class:`~previewctl.control.reach.ReachController`).
 
     One search (an imaginary arm) per preview time ``t_i* = t + i t̃``, ``i = 1..p``. When a camera
     frame is due (and at the first call), each search runs one generation against the hand target
