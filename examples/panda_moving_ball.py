@@ -2,9 +2,9 @@
 
 The hand moves 0.5 m along +y in 10 s; a ball of radius 8 cm flies along -y at 0.12 m/s, 7 cm above
 the elbow (a ``ConstantVelocity`` obstacle). Plain tracking (``none``) is hit at 3.65 s. Here
-``multi`` (eq. 21, three imaginary arms at t + 1, 2, 3 s) with the local AMSIP gradient added
-(``with_gradient``: the imaginary arms' optima lie radians away on this arm, and the local term keeps
-the elbow clear meanwhile) moves the elbow out of the way through the null space.
+``multi`` (eq. 21, three imaginary arms at t + 1, 2, 3 s, on a route that a sampled search plans toward
+their GAs' peaks every 0.5 s) with the local AMSIP gradient added (``with_gradient``) moves the elbow
+out of the way through the null space.
 
 Run: ``python examples/panda_moving_ball.py [--duration 10]`` (about 10 s).
 """

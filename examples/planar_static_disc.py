@@ -2,9 +2,10 @@
 
 The hand moves from (1.91, 1.04) m to (0.80, 1.60) m in 8 s. A disc of radius 0.1 m (a vertical
 cylinder) stands at (0.55, 1.80) m: plain tracking (``--controller none``) keeps the elbow up and
-sweeps link 3 into it at 4.3 s. ``multi`` (eq. 21: three imaginary arms at t + 1, 2, 3 s, each with
-its own 1-step GA, one generation per 33 ms camera frame) pulls the arm toward the AMSIP peaks of
-the future hand targets, which keep the links clear of the disc.
+sweeps link 3 into it at 4.3 s. ``multi`` (eq. 21: three imaginary arms at t + 1, 2, 3 s) pulls the
+arm along a route that the reachability DP plans, every 0.5 s, toward the best AMSIP peak of the future
+hand targets that a collision-free motion reaches (each preview time has its own 1-step GA, one
+generation per 33 ms camera frame); the route keeps the links clear of the disc.
 
 Run: ``python examples/planar_static_disc.py [--duration 8] [--controller multi]`` (a few seconds).
 """

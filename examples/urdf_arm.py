@@ -5,7 +5,7 @@ pitch joints, one cylinder per link. ``load_robot`` finds the rest itself: the h
 a 3-D position task (so one degree of redundancy: the elbow swings in the arm's vertical plane),
 the control points (elbow and wrist) and the guarded links. The hand moves 0.3 m sideways in 6 s
 past a static ball of radius 6 cm; plain tracking (``none``) hits it at 3.6 s. ``multi`` steers the
-elbow away through the null space.
+elbow away through the null space, along a route that a sampled search plans.
 
 Run: ``python examples/urdf_arm.py [--duration 6]`` (a few seconds).
 """

@@ -34,14 +34,17 @@ def add_parser(commands: Commands) -> None:
     paper = commands.add_parser(
         "paper",
         help="the paper's planar experiment with every controller (the main job)",
-        description="Run the canonical planar scenes (scenarios/paper_fitted.toml: planar4 tracing five 0.75 m "
-        "segments fitted to the paper's Table 3 along a target object, 50 s; scenarios/paper_planar.toml: the "
-        "inverted staircase with a pillar trap) with none, qp, gradient, single (t~ = 10 s), multi (t~ = 5 s, "
-        "k = 0.3, 0.65, 0.05), reach, horizon (the reachability DP over the 15 s preview window, replanned every "
-        "2.5 s) and the non-causal oracle, each executed by the constrained QP (label: the "
-        "controller's name; none under the QP is the qp baseline) and by the paper's pseudo-inverse eq. 19 "
-        "(label: <name>-pinv); print one comparison table per scene; write each run's log, figures and 3-D "
-        "replay (replay.html, with the oracle's motion beside it) to OUT/<scene>/<label>/ and OUT/summary.json.",
+        description=(
+            "Run the canonical planar scenes (scenarios/paper_fitted.toml: planar4 tracing five 0.75 m segments "
+            "fitted to the paper's Table 3 along a target object, 50 s; scenarios/paper_planar.toml: the inverted "
+            "staircase with a pillar trap) with none, qp, gradient, single (t~ = 10 s), multi (t~ = 5 s, k = 0.3, "
+            "0.65, 0.05, its imaginary arms on reach's planned route), reach, horizon (the reachability DP over "
+            "the 15 s preview window, replanned every 2.5 s) and the non-causal oracle, each executed by the "
+            "constrained QP (label: the controller's name; none under the QP is the qp baseline) and by the "
+            "paper's pseudo-inverse eq. 19 (label: <name>-pinv); print one comparison table per scene; write each "
+            "run's log, figures and 3-D replay (replay.html, with the oracle's motion beside it) to "
+            "OUT/<scene>/<label>/ and OUT/summary.json."
+        )
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
     paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")

@@ -13,7 +13,8 @@ Controllers and their parameters (the paper's where it gives them):
   method of NEO: the peer baseline);
 * ``gradient``: local null-space ascent of AMSIP (a local-method baseline);
 * ``single``: eq. 20, one imaginary arm at ``t + 10 s`` (section 7.1);
-* ``multi``: eq. 21, three imaginary arms at ``t + 5, 10, 15 s``, ``k = (0.3, 0.65, 0.05)`` (section 7.2);
+* ``multi``: eq. 21, three imaginary arms at ``t + 5, 10, 15 s``, ``k = (0.3, 0.65, 0.05)`` (section 7.2), on the
+  route ``reach`` plans (Fig. 3);
 * ``reach``: the reachability sequence of Fig. 3 over the same three preview times and weights;
 * ``horizon``: the reachability DP over the preview window ``[t, t + 15 s]``, replanned every 2.5 s;
 * ``oracle``: the reachability DP's best motion (non-causal: a reference).
