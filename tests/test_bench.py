@@ -274,6 +274,14 @@ def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path:
     assert "1 draws rejected by the solvability witness on the way (reachability DP on a 4 deg grid, 32 steps, " \
            "then followed by the oracle)" in text
     assert "The witness's oracle run is the `oracle` QP run of its scene (recorded, not run again" in text
+    spatial = {"robot": "panda", "rejected": 2, "witness": "a collision-free configuration with the hand on the path "
+               "exists every 0.25 s (64 samples; least best S 90.1); sampled search: a collision-free tracking motion "
+               "was found to t = 10.00 s (best min S 85.0); the oracle followed it (max hand error 0.001 mm, no "
+               "collision)"}
+    text = write_report([{**r, "robot": "panda"} for r in records], [spatial], tmp_path)[0].read_text()
+    assert ("panda: 1 scenes generated, 2 draws rejected by the solvability witness on the way (a collision-free "
+            "configuration with the hand on the path exists every 0.25 s, then a motion found by the sampled search, "
+            "then followed by the oracle).") in text
 
 
 def test_results_reader_skips_a_torn_line(tmp_path: Path) -> None:

@@ -121,6 +121,7 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
         if drawn:
             rejected = sum(s["rejected"] for s in drawn)
             how = re.split("[:(]", drawn[0]["witness"])[0].strip()
+            how += ", then a motion found by the sampled search" if "sampled search:" in drawn[0]["witness"] else ""
             how += ", then followed by the oracle" if "the oracle followed it" in drawn[0]["witness"] else ""
             lines += [f"{robot}: {len(drawn)} scenes generated, {rejected} draws rejected by the solvability "
                       f"witness on the way ({how}).", ""]
