@@ -6,7 +6,7 @@ the elbow (a ``ConstantVelocity`` obstacle). Plain tracking (``none``) is hit at
 their GAs' peaks every 0.5 s) with the local AMSIP gradient added (``with_gradient``) moves the elbow
 out of the way through the null space.
 
-Run: ``python examples/panda_moving_ball.py [--duration 10]`` (about 10 s).
+Run: ``python examples/panda_moving_ball.py [--duration 10]`` (about 12 s).
 """
 
 from __future__ import annotations
