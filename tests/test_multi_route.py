@@ -90,3 +90,16 @@ def test_the_route_leaves_the_basin_that_the_tracked_peaks_stay_in() -> None:
         assert not summary["collided"]
         errors[arms] = summary["max_hand_error"]
     assert errors["route"] < 1e-3 < 0.1 < errors["peaks"]
+
+
+def test_multi_changes_elbow_through_the_stretched_wrist_on_the_staircase() -> None:
+    """On the staircase (seed 0) the route leaves the dying family early: q4 changes sign through 0 (the stretched
+    wrist, not the fold at ±π) with the hand on the path and no collision, which tracked peaks never do."""
+    run = simulate(_multi(canonical_scenario("paper_planar"), 8.0), seed=0)
+    q4, error = np.asarray(run.q)[:, 3], np.asarray(run.hand_error)
+    crossings = np.flatnonzero(np.sign(q4[1:]) != np.sign(q4[:-1]))
+    assert crossings.size >= 1, "multi kept its elbow branch"
+    for k in crossings:
+        assert max(abs(q4[k]), abs(q4[k + 1])) < 0.05  # through q4 = 0
+        assert error[k] < 1e-3  # [m]
+    assert not run.summary()["collided"]
