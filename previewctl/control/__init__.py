@@ -10,9 +10,11 @@ and differs only in the null-space input ``v``:
 * ``gradient``: ``v = K_g ∇_q S`` (local null-space ascent of the AMSIP; ``∇S`` by central finite
   differences of the :class:`~previewctl.index.evaluator.Evaluator`, one batch of ``2 nv`` configurations);
 * ``single`` (eq. 20): ``v = K_v (q̃(t + t̃) − q)``;
-* ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``;
-* ``reach`` (Fig. 3): heads for the imaginary arms' best peak that a checked motion reaches, planned by the
-  DP of ``horizon`` (or straight routes of peaks in the paper-literal mode) (:mod:`previewctl.control.reach`);
+* ``multi`` (eq. 21): ``v = K_v (Σ_i k_i q̃(t + i t̃) − q)``, ``0 < k_i < 1``, ``Σ k_i = 1``; in coherent mode the
+  ``q̃_i`` are where ``reach``'s planned route puts the arm at the preview times (``imaginary_arms = "route"``);
+* ``reach`` (Fig. 3): heads for the imaginary arms' best peak that a checked motion reaches, planned by
+  ``horizon``'s planner (the DP, or the sampled search on spatial arms; straight routes of peaks in the
+  paper-literal mode) (:mod:`previewctl.control.reach`);
 * ``horizon``: the reachability DP over the preview window ``[t, t + p t̃]`` only, replanned every
   ``replan_period``: future reachability evaluated on the redundancy grid instead of by imaginary arms
   (:mod:`previewctl.control.oracle`; on spatial arms by the sampled search of :mod:`previewctl.search.roadmap`);

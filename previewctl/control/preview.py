@@ -63,6 +63,16 @@ def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int
     return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
 
 
+def preview_pull(robot: Robot, q: Array, targets: Array, weights: Array, *, keep: tuple[int, ...] = ()) -> Array:
+    """``Σ_i k_i (q̃_i ⊖ q)`` ``(nv,)`` [rad]: the blend of eq. 21 (eq. 20 with one target), each difference as
+    :func:`wrapped_difference` takes it (``keep`` every index: plain differences, for targets unwrapped along a
+    plan)."""
+    pull = np.zeros(robot.nv)
+    for k, target in zip(weights, targets, strict=True):
+        pull += k * wrapped_difference(robot, q, target, keep=keep)
+    return pull
+
+
 class PreviewController:
     """``single`` (eq. 20) and ``multi`` (eq. 21) preview control on the imaginary arms' own optima: ``single``
     always; ``multi`` in the paper-literal mode, with ``imaginary_arms = "peaks"``, and on planar arms of more than 4
@@ -182,10 +192,7 @@ class PreviewController:
             targets, values = self._update_targets(t, q, state.path)
         else:
             targets, values = self._targets, self._target_amsip
-        direction = np.zeros(self.robot.nv)
-        for k, ramp, target in zip(self.weights, self._ramp, targets, strict=True):
-            direction += k * ramp * wrapped_difference(self.robot, q, target, keep=self._keep)
-        v = self._gain * direction
+        v = self._gain * preview_pull(self.robot, q, targets, self.weights * self._ramp, keep=self._keep)
         if self._local is not None:
             v = v + self._local.null_space_input(q, t)
         return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())

@@ -7,14 +7,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.control.base import ControlInfo, ControlState
 from previewctl.control.gradient import GradientController
 from previewctl.control.oracle import OracleController
 from previewctl.control.params import ControllerParams
-from previewctl.control.preview import SearchLike, step_searches, wrapped_difference
+from previewctl.control.preview import SearchLike, preview_pull, step_searches, wrapped_difference
 from previewctl.control.tracking import effective_velocity_limits, gain_vector, track
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
@@ -301,7 +300,7 @@ class ReachController:
         planner.arrive(t)
         points = [planner.point(t + (i + 1) * self.params.preview_time) for i in range(len(self.weights))]
         arms = np.array([arm for arm, _, _ in points])
-        pull = sum(k * pin.difference(self.robot.model, q, arm) for k, arm in zip(self.weights, arms, strict=True))
+        pull = preview_pull(self.robot, q, arms, self.weights, keep=tuple(range(self.robot.nv)))
         v = self._gain * pull * min(1.0, self._frames / self.params.settle_frames)
         if self._local is not None:
             v = v + self._local.null_space_input(q, t)
@@ -322,11 +321,7 @@ class ReachController:
             targets[:n], values[:n] = self._route.nodes, self._route.S
             v = wrapped_difference(self.robot, q, self._route.lead, keep=self._keep) / self._sweep_step
         else:
-            pulls = [
-                k * wrapped_difference(self.robot, q, g, keep=self._keep)
-                for k, g in zip(self.weights, targets, strict=True)
-            ]
-            v = self._gain * np.sum(pulls, axis=0)
+            v = self._gain * preview_pull(self.robot, q, targets, self.weights, keep=self._keep)
         if self.params.coherent:  # ramp in while the searches settle
             v = v * min(1.0, self._frames / self.params.settle_frames)
         return track(self.robot, t, q, state, v, self.params, targets.copy(), values.copy())
