@@ -16,7 +16,7 @@ from previewctl.control.oracle import HORIZON_ROADMAP, OracleController
 from previewctl.control.reach import ReachController
 from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
-from previewctl.kinematics import hand_placement
+from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
@@ -136,17 +136,12 @@ def test_a_goal_beyond_the_speed_limits_is_not_reached(crossing: Scenario) -> No
     assert result.motion.times[-1] == pytest.approx(1.5)
 
 
-def hand_position(robot: Robot, q: np.ndarray) -> np.ndarray:
-    """The hand's position [m] at configuration ``q``."""
-    return hand_placement(robot, q, robot.model.createData())[0]
-
-
 @pytest.fixture(scope="module")
 def kinova_turn(kinova: Robot) -> Scenario:
     """Kinova Jaco 2 (continuous joints): the hand moves 0.12 m in 2 s where the base joint turns through ±π."""
     start = np.array([np.pi - 0.15, 2.9, 0.85, 1.43, 3.25, 2.59])
     turned = start + np.array([0.3, 0, 0, 0, 0, 0])
-    ends = [hand_position(kinova, kinova.configuration_from_angles(a)).tolist() for a in (start, turned)]
+    ends = kinematics(kinova, kinova.configurations_from_angles(np.stack([start, turned]))).tip_position.tolist()
     q0 = kinova.configuration_from_angles(start).tolist()
     document = {"name": "kinova_turn", "robot": {"source": "kinova", "q0": q0},
                 "path": {"waypoints": ends, "duration": 2.0}, "obstacles": [], "controller": {"name": "oracle"},
@@ -168,8 +163,9 @@ def test_an_arm_with_continuous_joints_turns_through_pi(kinova_turn: Scenario) -
     sub = opts.step / (opts.substeps + 1)
     steps = np.array([pin.difference(robot.model, a, b) for a, b in zip(motion.q[:-1], motion.q[1:], strict=True)])
     assert np.all(np.abs(steps) <= robot.velocity_limits * opts.speed_share * sub + 1e-9)
-    for t, q in zip(motion.times, motion.q, strict=True):
-        assert np.linalg.norm(hand_position(robot, q) - kinova_turn.path.position(float(t))) < 1e-4
+    hands = kinematics(robot, motion.q).tip_position
+    for t, hand in zip(motion.times, hands, strict=True):
+        assert np.linalg.norm(hand - kinova_turn.path.position(float(t))) < 1e-4
     summary = simulate(kinova_turn, "oracle").summary()
     assert not summary["collided"] and summary["max_hand_error"] < 1e-3
 
