@@ -42,22 +42,20 @@ def test_the_imaginary_arms_are_on_the_route_unless_asked_otherwise(params: dict
 
 
 def test_the_pull_is_eq_21_toward_the_plan_at_the_preview_times(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every command's ``v`` is ``K_v Σ k_i (q_plan(t + i t̃) − q)``, ramped in over ``settle_frames`` frames (counted
-    from the first, at t = 0), and each imaginary arm inside the plan has its hand on the path at its own time."""
+    """Every command's ``v`` is ``K_v Σ k_i (q_plan(t + i t̃) − q)`` from the first frame on (no ramp), and each
+    imaginary arm inside the plan has its hand on the path at its own time."""
     scenario = _multi(canonical_scenario("paper_fitted"), 4.0)
     controller = make_controller(scenario)
     law = controller.law
     assert isinstance(law, ReachController) and law.planner is not None
-    params, seen, worst, frames = scenario.controller.params, [], [0.0], [0]
+    params, seen, worst = scenario.controller.params, [], [0.0]
     original = reach_module.track
 
     def spy(robot: Any, t: float, q: Any, state: Any, v: Any, p: Any, targets: Any, values: Any) -> Any:
         assert law.planner is not None and law.planner.motion is not None
         arms = [law.planner.point(t + (i + 1) * params.preview_time)[0] for i in range(len(params.weights))]
         pull = sum(k * (arm - q) for k, arm in zip(params.weights, arms, strict=True))
-        frames[0] += bool(state.frame_due)
-        ramp = min(1.0, frames[0] / params.settle_frames)
-        np.testing.assert_allclose(v, np.asarray(params.gain) * ramp * pull, atol=1e-12)
+        np.testing.assert_allclose(v, np.asarray(params.gain) * pull, atol=1e-12)
         np.testing.assert_allclose(targets, np.array(arms), atol=0)
         end = law.planner.motion.times[-1]
         hands = kinematics(robot, np.array(arms)).tip_position[:, :2]
@@ -65,12 +63,12 @@ def test_the_pull_is_eq_21_toward_the_plan_at_the_preview_times(monkeypatch: pyt
             t_i = t + (i + 1) * params.preview_time
             if t_i <= end:
                 worst.append(float(np.linalg.norm(hand - scenario.path.position(t_i)[:2])))
-        seen.append(ramp)
+        seen.append(t)
         return original(robot, t, q, state, v, p, targets, values)
 
     monkeypatch.setattr(reach_module, "track", spy)
     summary = simulate(scenario, controller=controller).summary()
-    assert len(seen) == 401 and seen[0] == pytest.approx(1 / params.settle_frames) and seen[-1] == 1.0
+    assert len(seen) == 401
     # the plan is linear between its samples (chords of up to ~1 mm here); an arm at a wrong time would be
     # decimetres off: the hand moves 0.075 m/s on average and t̃ = 5 s
     assert 0 < max(worst) < 3e-3

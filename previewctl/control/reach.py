@@ -95,7 +95,9 @@ class ReachController:
     **Coherent ``multi``** (``blend=True``, where the moves are planned: :meth:`plans`) runs the same plans and does
     not follow them: its imaginary arms are where the plan puts the arm at the preview times, ``q_plan(t + i t̃)``
     (beyond the plan's end, its last configuration, the reached peak), and eq. 21 pulls the arm toward them:
-    ``v = K_v Σ k_i (q_plan(t + i t̃) ⊖ q)``, ramped in over the first ``settle_frames`` frames. This is the paper's
+    ``v = K_v Σ k_i (q_plan(t + i t̃) ⊖ q)``, at full weight from the first frame (the plans made before the GA
+    settles are the DP's own best motions, so there is nothing to ramp in; with the ramp, the arm fell behind the
+    first plans and the replans from there led elsewhere). This is the paper's
     multi-preview control as its Fig. 3 describes it (the sequence of future configurations is chosen by its
     reachability, then eq. 21 controls the arm toward it). Eq. 21 on the tracked peaks alone
     (:class:`~previewctl.control.preview.PreviewController`, :mod:`~previewctl.control.peaks`) never changes basin:
@@ -296,12 +298,12 @@ class ReachController:
     def _blended(self, t: float, q: Array, state: ControlState, planner: OracleController) -> tuple[Array, ControlInfo]:
         """``multi``: eq. 21 with the imaginary arms where the plan puts the arm at the preview times,
         ``v = K_v Σ k_i (q_plan(t + i t̃) ⊖ q)`` (beyond its end the plan holds its last configuration: the reached
-        peak), ramped in over the first ``settle_frames`` frames, plus the local term with ``with_gradient``."""
+        peak), plus the local term with ``with_gradient``."""
         planner.arrive(t)
         points = [planner.point(t + (i + 1) * self.params.preview_time) for i in range(len(self.weights))]
         arms = np.array([arm for arm, _, _ in points])
         pull = preview_pull(self.robot, q, arms, self.weights, keep=tuple(range(self.robot.nv)))
-        v = self._gain * pull * min(1.0, self._frames / self.params.settle_frames)
+        v = self._gain * pull
         if self._local is not None:
             v = v + self._local.null_space_input(q, t)
         return track(self.robot, t, q, state, v, self.params, arms, np.array([S for _, _, S in points]))
