@@ -533,6 +533,23 @@ def test_a_margin_holds_along_the_whole_motion(canonical: tuple[Scenario, ReachR
     assert not kept.exists and kept.summary()["grid"]["margin"] == 0.05
 
 
+def _planned_margins(monkeypatch: pytest.MonkeyPatch, scenario: Scenario, name: str, execution: str,
+                     planner: str) -> list[float]:
+    """The margins [m] of the plans that controller ``name`` makes at its first step, read by a spy on the oracle
+    module's ``planner`` (``reach_over_time``, the planar DP, or ``roadmap_over_time``, the sampled search)."""
+    seen: list[float] = []
+    original = getattr(oracle_module, planner)
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        seen.append(args[5].margin)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(oracle_module, planner, spy)
+    params = dataclasses.replace(scenario.controller.params, execution=execution, plan_window=1.0)
+    make_controller(scenario, name=name, params=params).step(np.array(scenario.q0), 0.0, 0.01)
+    return seen
+
+
 @pytest.mark.parametrize(("name", "execution", "margin"),
                          [("horizon", "qp", 0.02), ("horizon", "pseudoinverse", 0.0), ("reach", "qp", 0.02),
                           ("multi", "qp", 0.02), ("oracle", "qp", 0.0)])
@@ -541,17 +558,7 @@ def test_replanned_motions_keep_the_qps_safety_distance(monkeypatch: pytest.Monk
     """Under the QP, whose dampers hold every link ``safety_distance`` (2 cm) off, the plans ``horizon``, ``reach``
     and ``multi`` make keep that margin; under eq. 19 and in the oracle's plan (the scenes' witness), none."""
     scenario = generate("planar4", 1, 0).scenario()
-    seen: list[float] = []
-    original = oracle_module.reach_over_time
-
-    def spy(*args: Any, **kwargs: Any) -> ReachResult:
-        seen.append(args[5].margin)
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(oracle_module, "reach_over_time", spy)
-    params = dataclasses.replace(scenario.controller.params, execution=execution)
-    make_controller(scenario, name=name, params=params).step(np.array(scenario.q0), 0.0, 0.01)
-    assert seen == [margin]
+    assert _planned_margins(monkeypatch, scenario, name, execution, "reach_over_time") == [margin]
 
 
 @pytest.mark.parametrize(("execution", "margin"), [("qp", 0.02), ("pseudoinverse", 0.01)])
@@ -559,17 +566,7 @@ def test_a_spatial_replan_keeps_the_qps_safety_distance(monkeypatch: pytest.Monk
                                                         margin: float) -> None:
     """On a spatial arm the sampled search keeps the larger of its own margin (1 cm) and the QP's 2 cm."""
     scenario = load_scenario(SCENARIOS / "panda_crossing.toml")
-    seen: list[float] = []
-    original = oracle_module.roadmap_over_time
-
-    def spy(*args: Any, **kwargs: Any) -> Any:
-        seen.append(args[5].margin)
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(oracle_module, "roadmap_over_time", spy)
-    params = dataclasses.replace(scenario.controller.params, execution=execution, plan_window=1.0)
-    make_controller(scenario, name="horizon", params=params).step(np.array(scenario.q0), 0.0, 0.01)
-    assert seen == [margin]
+    assert _planned_margins(monkeypatch, scenario, "horizon", execution, "roadmap_over_time") == [margin]
 
 
 def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
