@@ -8,7 +8,6 @@ import itertools
 import json
 import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -16,7 +15,6 @@ import pytest
 
 from previewctl.bench.scenes import generate
 from previewctl.cli.main import main
-from previewctl.control import oracle as oracle_module
 from previewctl.control.factory import make_controller
 from previewctl.control.oracle import ORACLE_OPTIONS
 from previewctl.control.params import ControllerParams
@@ -29,7 +27,7 @@ from previewctl.robot.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
-from previewctl.search.reachability import PlanarOnlyError, ReachMotion, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_model, targets
 from previewctl.search.redundancy import wrap_angle
@@ -515,60 +513,6 @@ def test_best_motion_is_collision_free_under_the_exact_check(canonical: tuple[Sc
     assert check.min_distance.min() > 0
 
 
-def test_a_margin_holds_along_the_whole_motion(canonical: tuple[Scenario, ReachResult]) -> None:
-    """With ``margin`` = 5 cm every guarded capsule keeps more than 5 cm from the pillar at the samples and between
-    them (the sweep test on the distances less the margin), where the motion without one comes within 3.4 cm; on
-    this 4° grid no motion keeps 5 cm to the end, and the verdict says so."""
-    scenario, free = canonical
-    evaluator = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
-
-    def closest(motion: ReachMotion) -> float:
-        fine = np.linspace(motion.times[0], motion.times[-1], 20 * (len(motion.times) - 1) + 1)
-        return float(evaluator(np.stack([motion.at(t) for t in fine]), 0.0).min_distance.min())
-
-    kept = reach_over_time(scenario.robot, evaluator, scenario.path, scenario.q0, 50.0,
-                           ReachOptions(resolution_deg=4.0, steps=50, map_times=0, margin=0.05))
-    assert closest(free.motion) < 0.04
-    assert closest(kept.motion) > 0.05 and len(kept.motion.times) > 10
-    assert not kept.exists and kept.summary()["grid"]["margin"] == 0.05
-
-
-def _planned_margins(monkeypatch: pytest.MonkeyPatch, scenario: Scenario, name: str, execution: str,
-                     planner: str) -> list[float]:
-    """The margins [m] of the plans that controller ``name`` makes at its first step, read by a spy on the oracle
-    module's ``planner`` (``reach_over_time``, the planar DP, or ``roadmap_over_time``, the sampled search)."""
-    seen: list[float] = []
-    original = getattr(oracle_module, planner)
-
-    def spy(*args: Any, **kwargs: Any) -> Any:
-        seen.append(args[5].margin)
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(oracle_module, planner, spy)
-    params = dataclasses.replace(scenario.controller.params, execution=execution, plan_window=1.0)
-    make_controller(scenario, name=name, params=params).step(np.array(scenario.q0), 0.0, 0.01)
-    return seen
-
-
-@pytest.mark.parametrize(("name", "execution", "margin"),
-                         [("horizon", "qp", 0.02), ("horizon", "pseudoinverse", 0.0), ("reach", "qp", 0.02),
-                          ("multi", "qp", 0.02), ("oracle", "qp", 0.0)])
-def test_replanned_motions_keep_the_qps_safety_distance(monkeypatch: pytest.MonkeyPatch, name: str, execution: str,
-                                                        margin: float) -> None:
-    """Under the QP, whose dampers hold every link ``safety_distance`` (2 cm) off, the plans ``horizon``, ``reach``
-    and ``multi`` make keep that margin; under eq. 19 and in the oracle's plan (the scenes' witness), none."""
-    scenario = generate("planar4", 1, 0).scenario()
-    assert _planned_margins(monkeypatch, scenario, name, execution, "reach_over_time") == [margin]
-
-
-@pytest.mark.parametrize(("execution", "margin"), [("qp", 0.02), ("pseudoinverse", 0.01)])
-def test_a_spatial_replan_keeps_the_qps_safety_distance(monkeypatch: pytest.MonkeyPatch, execution: str,
-                                                        margin: float) -> None:
-    """On a spatial arm the sampled search keeps the larger of its own margin (1 cm) and the QP's 2 cm."""
-    scenario = load_scenario(SCENARIOS / "panda_crossing.toml")
-    assert _planned_margins(monkeypatch, scenario, "horizon", execution, "roadmap_over_time") == [margin]
-
-
 def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
     path = HandPath(np.array([[0.4, 0.0, 0.4], [0.4, 0.2, 0.4]]), 2.0)
     with pytest.raises(PlanarOnlyError, match=r"^reach-map: planar arms only \(robot 'panda' is spatial\)$"):
@@ -582,8 +526,6 @@ def test_options_name_the_bad_value() -> None:
         ReachOptions(steps=2.5)  # type: ignore[arg-type]
     with pytest.raises(ConfigurationError, match=r"velocity_scale must lie in \(0, 1\], got 1.5"):
         ReachOptions(velocity_scale=1.5)
-    with pytest.raises(ConfigurationError, match=r"margin must be a finite distance >= 0 \[m\], got -0.01"):
-        ReachOptions(margin=-0.01)
 
 
 def test_time_step_too_short_for_the_grid(planar4: Robot) -> None:

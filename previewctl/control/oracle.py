@@ -35,10 +35,7 @@ scenes set 6 s): every ``replan_period`` [s] (default ``t̃ / 2``) it plans from
 over ``[t, t + plan_window]`` only, on a coarser grid (:data:`HORIZON_OPTIONS`: 4°, one step per 0.16 s, at
 most 24 steps), and follows that plan as the oracle follows its own. The plan maximises the worst S inside
 the window and knows nothing beyond it. On a spatial arm it replans with a smaller sampled search
-(:data:`HORIZON_ROADMAP`). Under the QP execution every replanned motion keeps the links ``safety_distance``
-from the obstacles, as the QP's dampers will: on 60 held-out planar bench scenes (scene seeds 6 and 7, QP,
-1 mm) a plan that merely avoided contact left ``reach`` trapped by the dampers on 4 (it finished 56, with the
-margin 58; ``multi`` 56 -> 57).
+(:data:`HORIZON_ROADMAP`).
 """
 
 from __future__ import annotations
@@ -185,14 +182,12 @@ class OracleController:
                                min_S=float("nan"), total_S=0.0)
             return self._made(t, hold, None)
         if self.robot.planar is None:  # a spatial arm: the sampled forward search
-            roadmap = replace(self.roadmap, margin=max(self.roadmap.margin, self._execution_margin()))
-            found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, roadmap, t_start=t,
+            found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t,
                                       goals=goals)
             return self._made(t, found.motion, None, found.goal)
         options = self.options
         if self.window is not None:
-            options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))),
-                              margin=max(options.margin, self._execution_margin()))
+            options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
         else:  # the reference's genes may move at half the arm's speed limits
             options = fast_enough(self.robot, options, horizon, ORACLE_GENE_SPEED)
         slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
@@ -202,15 +197,6 @@ class OracleController:
                 options = replace(options, steps=max(1, fit))
         result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
         return self._made(t, result.motion, result, result.goal)
-
-    def _execution_margin(self) -> float:
-        """[m] how far from the obstacles a replanned motion keeps the links: under the QP execution, whose dampers
-        never let a link nearer than ``safety_distance``, that distance (a plan closer than it could not be
-        followed: the dampers would hold the link back and the hand would leave the path); otherwise 0. The
-        oracle's plan, made once over the whole run, is the scenes' witness and keeps its planner's own margin."""
-        if self.window is None or self.params.execution != "qp":
-            return 0.0
-        return self.params.safety_distance
 
     def _made(self, t: float, motion: ReachMotion, result: ReachResult | None,
               goal: tuple[int, int] | None = None) -> ReachMotion:

@@ -18,9 +18,7 @@ answers it exactly on a grid, for planar arms, offline and non-causally (it read
   with the obstacles and the hand target of that time. Layer 0 of the dynamic programme is the
   start configuration ``q0`` itself (not a grid cell); the grid at ``t_0`` is only used for the
   start families and the figures.
-* **Feasible cells.** ``S > s_min`` (AMSIP, eq. 18; ``S < 0`` when colliding or unreachable) and every guarded
-  capsule more than ``margin`` [m] from every obstacle (0 by default; in the sweep test below, ``d_l`` is then the
-  distance less the margin, so the margin holds along the steps too).
+* **Feasible cells.** ``S > s_min`` (AMSIP, eq. 18; ``S < 0`` when colliding or unreachable).
 * **Transitions** ``c -> c'`` from layer ``k`` to ``k + 1`` (all conditions, each conservative):
 
   1. joint speed (every joint, the closed-form last two included): ``|Δq_j| <= δ_j = v_j Δt``

@@ -32,7 +32,7 @@ class Layer:
     genes: Array  # (m, g) gene values [rad] (the axis values: unwrapped for bounded genes)
     q1: Array  # (m,) q_(n-1) wrapped to [-pi, pi) [rad]
     beta: Array  # (m,) signed elbow angle [rad]
-    d_t: Array  # (L, m) capsule distances less the problem's margin [m]
+    d_t: Array  # (L, m) capsule distances [m]
     S: Array  # (m,)
     valid: BoolArray  # (m, M) representative m of q_(n-1) within the joint limits
 
@@ -50,11 +50,9 @@ def solve_whole_grid(red: PlanarRedundancy, axes: tuple[Array, ...], target: Arr
 
 
 def evaluate_layer(red: PlanarRedundancy, evaluator: Evaluator, model: GridModel, target: Array, t: float,
-                   s_min: float, margin: float, candidates: IntArray | None) -> Layer:
+                   s_min: float, candidates: IntArray | None) -> Layer:
     """Solve and score the ``candidates`` (flat physical indices; ``None``: the whole grid) at ``t`` [s]; keep
-    the feasible ones: reachable, ``S > s_min``, every capsule more than ``margin`` [m] from every obstacle,
-    ``q_n`` and some representative of ``q_(n-1)`` within limits. The layer holds the distances less ``margin``,
-    so the steps' sweep test keeps the margin too."""
+    the feasible ones: reachable, ``S > s_min``, ``q_n`` and some representative of ``q_(n-1)`` within limits."""
     C, axes = model.cells, model.axes
     if candidates is None:
         index = np.arange(2 * C, dtype=np.int64)
@@ -68,12 +66,12 @@ def evaluate_layer(red: PlanarRedundancy, evaluator: Evaluator, model: GridModel
     d = np.full((index.size, len(evaluator.robot.guarded_links)), -np.inf)
     if reach.any():
         ev = evaluator(Q[reach], t)
-        S[reach], d[reach] = ev.S, ev.link_distances - margin
+        S[reach], d[reach] = ev.S, ev.link_distances
     branch_all = (index // C).astype(np.int32)
     beta = signed_elbow(red, Q, branch_all)
     q1 = wrap_angle(Q[:, red.n - 2])
     valid = _valid_representatives(model, q1)
-    ok = reach & (s_min < S) & (d > 0).all(axis=1) & _elbow_within_limits(model, beta) & valid.any(axis=1)
+    ok = reach & (s_min < S) & _elbow_within_limits(model, beta) & valid.any(axis=1)
     keep = np.flatnonzero(ok)
     cells = index[keep]
     gene_index = (np.stack(np.unravel_index(cells % C, model.shape), axis=1).astype(np.int64) if axes

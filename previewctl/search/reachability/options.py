@@ -22,9 +22,6 @@ class ReachOptions:
         steps: number of time steps ``N`` (``N + 1`` layers); ``Δt = duration / N`` [s].
         max_step_cells: cap on the gene cells moved per step (the work grows as ``(2 r + 1)^g``).
         s_min: feasible cells have ``S > s_min`` (0: collision-free and reachable).
-        margin: [m] the distance every guarded capsule keeps from every obstacle, at the samples and along the
-            steps (0: collision-free). A plan for an execution that keeps links ``d_s`` away (the QP's dampers)
-            asks for ``d_s``: closer, the arm could not follow it.
         velocity_scale: fraction of the URDF joint speed limits the motion may use, in (0, 1].
         obstacle_substeps: samples per step used to bound the obstacles' speed.
         cross_adjacency_deg: the two elbow branches of one grid cell count as adjacent (one family)
@@ -40,7 +37,6 @@ class ReachOptions:
     steps: int = 50
     max_step_cells: int = 3
     s_min: float = 0.0
-    margin: float = 0.0
     velocity_scale: float = 1.0
     obstacle_substeps: int = 8
     cross_adjacency_deg: float = 10.0
@@ -62,8 +58,6 @@ class ReachOptions:
                 raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
         if not (isinstance(self.s_min, (int, float)) and math.isfinite(self.s_min) and self.s_min >= 0):
             raise ConfigurationError(f"s_min must be a finite number >= 0, got {self.s_min!r}")
-        if not (isinstance(self.margin, (int, float)) and math.isfinite(self.margin) and self.margin >= 0):
-            raise ConfigurationError(f"margin must be a finite distance >= 0 [m], got {self.margin!r}")
         if not (isinstance(self.velocity_scale, (int, float)) and math.isfinite(self.velocity_scale)
                 and 0 < self.velocity_scale <= 1):
             raise ConfigurationError(f"velocity_scale must lie in (0, 1], got {self.velocity_scale!r}")

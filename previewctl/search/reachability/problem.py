@@ -35,7 +35,6 @@ class Problem:
         times: ``(N + 1,)`` layer times [s].
         travel: ``(N,)`` bound on the obstacles' travel during each step [m].
         s_min: feasible cells have ``S > s_min``.
-        margin: [m] the distance kept from the obstacles (:attr:`ReachOptions.margin`).
         lazy: evaluate only the cells the DP asks for (two genes); otherwise the whole grid is cheap, and
             every layer is evaluated whole.
         clock: wall-clock seconds spent so far building layers (``maps``) and edges (``edges``); the one
@@ -49,7 +48,6 @@ class Problem:
     times: Array
     travel: tuple[float, ...]
     s_min: float
-    margin: float
     lazy: bool
     clock: dict[str, float] = field(default_factory=lambda: {"maps": 0.0, "edges": 0.0})
 
@@ -62,7 +60,7 @@ class Problem:
         tic = time.perf_counter()
         t = self.times[k]
         layer = evaluate_layer(self.red, self.evaluator, self.model, np.asarray(self.path.position(t), float),
-                               float(t), self.s_min, self.margin, candidates if self.lazy else None)
+                               float(t), self.s_min, candidates if self.lazy else None)
         self.clock["maps"] += time.perf_counter() - tic
         return layer
 
@@ -76,7 +74,7 @@ class Problem:
     def first_step(self, start: Start, d0: Array, dst: Layer) -> IntArray:
         """The states of layer 1, ``dst``, reachable from ``start`` (capsule distances ``d0`` [m])."""
         tic = time.perf_counter()
-        states = start_states(self.model, start, d0 - self.margin, dst, self.travel[0])
+        states = start_states(self.model, start, d0, dst, self.travel[0])
         self.clock["edges"] += time.perf_counter() - tic
         return states
 
@@ -87,4 +85,4 @@ def make_problem(red: PlanarRedundancy, evaluator: Evaluator, path: HandPath, mo
     travel = tuple(obstacle_travel(evaluator.scene, float(times[k]), float(times[k + 1]), opts.obstacle_substeps)
                    for k in range(times.size - 1))
     return Problem(red=red, evaluator=evaluator, path=path, model=model, times=times, travel=travel,
-                   s_min=opts.s_min, margin=opts.margin, lazy=red.g == 2)
+                   s_min=opts.s_min, lazy=red.g == 2)

@@ -205,7 +205,6 @@ class ReachResult:
             "gene_cells_per_step": [int(r) for r in self.gene_cells],
             "gene_speed_deg_s": [round(math.degrees(v), 4) for v in self.gene_speed],
             "s_min": self.options.s_min,
-            "margin": self.options.margin,
             "velocity_scale": self.options.velocity_scale,
         }
 
