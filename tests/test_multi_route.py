@@ -68,7 +68,7 @@ def test_the_pull_is_eq_21_toward_the_plan_at_the_preview_times(monkeypatch: pyt
 
     monkeypatch.setattr(reach_module, "track", spy)
     summary = simulate(scenario, controller=controller).summary()
-    assert len(seen) == 401
+    assert len(seen) == 401 and seen[0] == 0.0  # the first command is checked too: with a ramp it would fail
     # the plan is linear between its samples (chords of up to ~1 mm here); an arm at a wrong time would be
     # decimetres off: the hand moves 0.075 m/s on average and t̃ = 5 s
     assert 0 < max(worst) < 3e-3
