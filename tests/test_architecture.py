@@ -23,7 +23,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "previewctl"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "types", "files", "validation"),
     ("path", "scene.motion", "scene.shapes", "scene.schema", "scene.file", "scene.solid", "robot.joints",
-     "robot.chain", "planar", "planar.chain", "planar.kernels", "planar.distance"),
+     "robot.chain", "planar", "robot.planar", "planar.kernels", "planar.distance"),
     ("robot.model", "robot.geometry", "robot.reach", "kinematics", "scene.clearance"),
     ("index", "planar.arm", "robot.load"),
     ("search", "planar.redundancy"),

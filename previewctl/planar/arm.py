@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from previewctl.index.amsi import IndexParams, amsi_weights, unit_ball_volume
-from previewctl.planar.chain import PlanarChain
+from previewctl.robot.planar import PlanarChain
 from previewctl.types import Array
 
 

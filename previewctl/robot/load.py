@@ -39,10 +39,10 @@ import pinocchio as pin
 
 from previewctl.errors import RobotLoadError, UnknownNameError
 from previewctl.index.amsi import avoidance
-from previewctl.planar.chain import PlanarChain
 from previewctl.robot.chain import HandFrames, hand_frames, split_joints
 from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepare_geometry, select_guarded_links
 from previewctl.robot.model import GEOMETRY_CHOICES, TASK_ROWS, Geometry, Robot, Task
+from previewctl.robot.planar import PlanarChain
 
 _TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
 

@@ -10,8 +10,8 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
-from previewctl.planar.chain import PlanarChain
 from previewctl.robot.joints import JointFacts
+from previewctl.robot.planar import PlanarChain
 
 Task = Literal["planar", "position", "pose"]
 Geometry = Literal["convex", "capsules", "mesh"]
