@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("path", "scene.motion", "scene.shapes", "scene.schema", "scene.file", "scene.solid", "robot.joints",
      "robot.chain", "planar", "robot.planar", "planar.kernels", "planar.distance"),
     ("robot.model", "robot.geometry", "robot.reach", "kinematics", "scene.clearance"),
-    ("index", "planar.arm", "robot.load"),
+    ("index", "robot.load"),
     ("search", "planar.redundancy"),
     ("control",),
     ("sim",),

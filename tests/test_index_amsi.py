@@ -1,6 +1,6 @@
 """Tests of :mod:`previewctl.index.amsi` (eqs. 3-17) and :mod:`previewctl.kinematics`: null-space
 identities, Jacobians against finite differences, the AMSI against a hand computation, ranks,
-continuity at singularities, the planar closed form (:mod:`previewctl.planar`) against the general
+continuity at singularities, the planar closed form (:mod:`previewctl.index.planar`) against the general
 (Pinocchio + Coal) path, batched frame kinematics against Pinocchio, and the Gram pseudo-inverse."""
 
 from __future__ import annotations

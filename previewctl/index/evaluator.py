@@ -25,10 +25,10 @@ from numpy.typing import NDArray
 
 from previewctl.errors import ParameterError
 from previewctl.index.amsi import IndexParams, amsi_from_kinematics
+from previewctl.index.planar import PlanarArm
 from previewctl.index.potential import Potential
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.planar import kernels as planar_kernels
-from previewctl.planar.arm import PlanarArm
 from previewctl.planar.distance import planar_kernel
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
