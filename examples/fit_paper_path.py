@@ -50,11 +50,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
 from previewctl.scene.shapes import Scene
 from previewctl.search.explore import Landscape, explore
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.sim.paper import canonical_scenario
 from previewctl.sim.scenario import Scenario
 from previewctl.types import Array

@@ -26,7 +26,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
      "robot.chain", "planar", "robot.planar", "planar.kernels", "planar.distance"),
     ("robot.model", "robot.geometry", "robot.reach", "kinematics", "scene.clearance"),
     ("index", "robot.load"),
-    ("search", "planar.redundancy"),
+    ("search",),
     ("control",),
     ("sim",),
     ("viz",),

@@ -29,13 +29,13 @@ from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import integrate, kinematics
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.maps import redundancy_map
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 

@@ -16,9 +16,9 @@ from previewctl.control.preview import wrapped_difference
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import canonical_scenario

@@ -22,11 +22,11 @@ from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import integrate
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_model, targets

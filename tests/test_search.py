@@ -12,7 +12,6 @@ import pytest
 from previewctl.cli.main import main
 from previewctl.errors import ConfigurationError, ParameterError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
@@ -21,6 +20,7 @@ from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA, step_together
 from previewctl.search.genes import halton
 from previewctl.search.maps import redundancy_map
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.redundancy import wrap_angle
 
 # The paper's hand positions A-F (section 7: A = (10 cm, 140 cm), five 75 cm segments).

@@ -1,5 +1,5 @@
 """Tests of the redundancy maps (:mod:`previewctl.search.redundancy`, :mod:`previewctl.search.maps`,
-:mod:`previewctl.search.newton`, :mod:`previewctl.planar.redundancy`) and of
+:mod:`previewctl.search.newton`, :mod:`previewctl.search.planar`) and of
 :mod:`previewctl.search.scoring`: the planar closed form and the general Newton map put the hand on
 the target.
 
@@ -17,13 +17,13 @@ import pytest
 
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere
 from previewctl.search.maps import redundancy_map
 from previewctl.search.newton import NewtonRedundancy
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.redundancy import parse_target, wrap_angle
 from previewctl.search.scoring import score
 

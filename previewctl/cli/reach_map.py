@@ -16,7 +16,7 @@ import numpy as np
 from previewctl.control.oracle import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability import ReachMotion, ReachOptions, ReachResult, reach_over_time
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_nodes
 from previewctl.search.roadmap import RoadmapOptions, roadmap_over_time

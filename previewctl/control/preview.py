@@ -16,10 +16,10 @@ from previewctl.control.tracking import effective_velocity_limits, gain_vector, 
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.types import Array
 
 

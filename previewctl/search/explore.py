@@ -9,7 +9,6 @@ from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.search.genes import (
@@ -22,6 +21,7 @@ from previewctl.search.genes import (
     reach_check,
 )
 from previewctl.search.maps import redundancy_map
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.redundancy import RedundancyMap, parse_target
 from previewctl.search.scoring import Scored, score, score_configurations
 from previewctl.types import Array

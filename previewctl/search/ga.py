@@ -26,7 +26,6 @@ from pydantic import Field
 
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.genes import (
     Candidate,
@@ -36,6 +35,7 @@ from previewctl.search.genes import (
     halton,
 )
 from previewctl.search.newton import NewtonRedundancy
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.redundancy import RedundancyMap, wrap_angle
 from previewctl.search.scoring import Scored, score, score_configurations
 from previewctl.types import Array

@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError, UnreachableTargetError
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.redundancy import RedundancyMap, parse_target, wrap_angle
 from previewctl.types import Array
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
 from previewctl.search.newton import NewtonRedundancy
+from previewctl.search.planar import PlanarRedundancy
 
 
 def redundancy_map(robot: Robot, **options: Any) -> PlanarRedundancy | NewtonRedundancy:

@@ -4,7 +4,7 @@ The paper's section 5.1 asks "whether the current configuration is reachable to 
 configuration" and answers by looking at the AMSIP maps at ten times (Fig. 8, Table 1). This package
 answers it exactly on a grid, for planar arms, offline and non-causally (it reads the whole future):
 
-* **Space.** The redundancy grid of :class:`~previewctl.planar.redundancy.PlanarRedundancy`: the
+* **Space.** The redundancy grid of :class:`~previewctl.search.planar.PlanarRedundancy`: the
   genes ``q_1 .. q_(n-2)`` on a ``h``-degree grid x the two elbow branches; the last two joints in
   closed form, so every cell puts the hand on the path. Joint limits hold along every motion: a
   gene's grid runs over its joint limits (planar4: ``[-360°, 360°]``, so a grid value *is* the joint

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability.dp import Forward
 from previewctl.search.reachability.grid import GridModel
 from previewctl.search.redundancy import wrap_angle

@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN as TWO_PI
 from previewctl.robot.model import Robot
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability.options import PlanarOnlyError, ReachOptions
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array, BoolArray, IntArray

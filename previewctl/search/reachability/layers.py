@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from previewctl.index.evaluator import Evaluator
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.joints import FULL_TURN as TWO_PI
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability.grid import GridModel, signed_elbow, targets
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array, BoolArray, IntArray

@@ -17,8 +17,8 @@ import numpy as np
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
 from previewctl.robot.model import Robot
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability.dp import best_states, forward
 from previewctl.search.reachability.families import end_families, start_families
 from previewctl.search.reachability.goals import Goals, pick_goal

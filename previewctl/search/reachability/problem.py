@@ -15,7 +15,7 @@ import numpy as np
 
 from previewctl.index.evaluator import Evaluator
 from previewctl.path import HandPath
-from previewctl.planar.redundancy import PlanarRedundancy
+from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability.grid import GridModel, Start
 from previewctl.search.reachability.layers import Layer, evaluate_layer
 from previewctl.search.reachability.options import ReachOptions
