@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.index.evaluator import Evaluator
-from previewctl.robot.load import load_robot
+from previewctl.index.load import load_robot
 from previewctl.robot.model import Geometry
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere

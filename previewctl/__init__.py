@@ -39,10 +39,10 @@ from previewctl.errors import (
 )
 from previewctl.index.amsi import AvoidanceResult, IndexParams, avoidance, unit_ball_volume
 from previewctl.index.evaluator import Evaluation, Evaluator, evaluate
+from previewctl.index.load import load_robot
 from previewctl.index.potential import Potential
 from previewctl.kinematics import integrate
 from previewctl.path import HandPath
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
 from previewctl.scene.motion import ConstantVelocity, Periodic, Static, Waypoints

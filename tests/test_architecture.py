@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("path", "scene.motion", "scene.shapes", "scene.schema", "scene.file", "scene.solid", "robot.joints",
      "robot.chain", "planar", "robot.planar", "planar.kernels", "planar.distance"),
     ("robot.model", "robot.geometry", "robot.reach", "kinematics", "scene.clearance"),
-    ("index", "robot.load"),
+    ("index",),
     ("search",),
     ("control",),
     ("sim",),

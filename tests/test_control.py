@@ -27,9 +27,9 @@ from previewctl.control.reach import ReachController
 from previewctl.control.tracking import TrackingController, damped_pseudo_inverse, track
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot
 from previewctl.kinematics import integrate, kinematics
 from previewctl.path import HandPath
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
 from previewctl.scene.motion import Static

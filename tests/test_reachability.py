@@ -20,9 +20,9 @@ from previewctl.control.oracle import ORACLE_OPTIONS
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot, shipped_robots_dir
 from previewctl.kinematics import integrate
 from previewctl.path import HandPath
-from previewctl.robot.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere

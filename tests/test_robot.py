@@ -34,7 +34,7 @@ from previewctl import (
     load_scene,
 )
 from previewctl.index.evaluator import Evaluator
-from previewctl.robot.load import shipped_robot_names, shipped_robots_dir
+from previewctl.index.load import shipped_robot_names, shipped_robots_dir
 from previewctl.robot.model import Robot, Task
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
@@ -585,7 +585,7 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
         archive.extractall(tmp_path / "site")
     script = (
         "import sys; sys.path.insert(0, sys.argv[1]);"
-        "import previewctl.robot.load as r;"
+        "import previewctl.index.load as r;"
         "robot = r.load_robot('planar4');"
         "print(r.shipped_robots_dir()); print(robot.nq)"
     )

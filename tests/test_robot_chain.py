@@ -12,7 +12,7 @@ import pytest
 from previewctl.cli import robots as robots_command
 from previewctl.cli.main import main
 from previewctl.errors import RobotLoadError
-from previewctl.robot.load import load_robot
+from previewctl.index.load import load_robot
 
 Joint = tuple[str, str, str, str, str]
 """(name, type, parent link, child link, origin xyz)."""

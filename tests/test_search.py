@@ -12,7 +12,7 @@ import pytest
 from previewctl.cli.main import main
 from previewctl.errors import ConfigurationError, ParameterError, UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
-from previewctl.robot.load import load_robot
+from previewctl.index.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere

@@ -17,7 +17,7 @@ import pytest
 
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
-from previewctl.robot.load import load_robot, shipped_robots_dir
+from previewctl.index.load import load_robot, shipped_robots_dir
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Box, Obstacle, Scene, Sphere

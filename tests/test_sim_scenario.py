@@ -16,8 +16,8 @@ from previewctl.cli.main import main
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ParameterError, PreviewctlError, ScenarioError
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot
 from previewctl.kinematics import kinematics
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.robot.reach import reach_of
 from previewctl.search.explore import explore

@@ -11,7 +11,7 @@ import pytest
 from helpers import random_chain_urdf
 
 from previewctl.errors import PreviewctlError
-from previewctl.robot.load import load_robot, load_visual
+from previewctl.index.load import load_robot, load_visual
 from previewctl.robot.model import Robot
 from previewctl.sim.schema import RobotSpec
 from previewctl.viz.arm_meshes import ARM_RGBA, ArmMeshes

@@ -33,9 +33,9 @@ import pinocchio as pin
 from previewctl.control.factory import make_controller
 from previewctl.errors import ParameterError, ScenarioError, UnknownNameError
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot
 from previewctl.kinematics import integrate
 from previewctl.path import HandPath
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
 from previewctl.scene.shapes import Scene

@@ -12,8 +12,8 @@ from previewctl.cli.common import Commands, add_evaluation_options, finite_or_no
 from previewctl.errors import ConfigurationError
 from previewctl.index.amsi import IndexParams, avoidance
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot
 from previewctl.index.potential import Potential
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
 from previewctl.scene.shapes import Scene

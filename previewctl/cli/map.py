@@ -14,9 +14,9 @@ from previewctl.errors import PreviewctlError
 from previewctl.files import check_output_file
 from previewctl.index.amsi import IndexParams
 from previewctl.index.evaluator import Evaluator
+from previewctl.index.load import load_robot
 from previewctl.index.potential import Potential
 from previewctl.robot.joints import FULL_TURN
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
 from previewctl.scene.shapes import Scene

@@ -10,7 +10,7 @@ from tqdm import tqdm
 
 from previewctl.cli.common import Commands, is_terminal
 from previewctl.errors import PreviewctlError
-from previewctl.robot.load import example_robot_names, load_robot, shipped_robot_names
+from previewctl.index.load import example_robot_names, load_robot, shipped_robot_names
 
 FEATURED = ("panda", "ur5", "ur3", "ur10", "kinova", "xarm7", "z1")
 """The example-robot-data arms listed without ``--all``."""

@@ -1,1 +1,2 @@
-"""The avoidance index: AMSI (eqs. 3-17), the obstacle potential, and AMSIP (eq. 18)."""
+"""The avoidance index: AMSI (eqs. 3-17, and their planar closed form), the obstacle potential, AMSIP
+(eq. 18), and loading a robot (which computes its structural ranks with the AMSI)."""

@@ -50,8 +50,8 @@ from pydantic import Field, ValidatorFunctionWrapHandler, WrapValidator, model_v
 from previewctl.control.params import GA_SETTINGS, ControllerName, ControllerParams
 from previewctl.errors import ParameterError
 from previewctl.index.amsi import IndexParams
+from previewctl.index.load import load_robot
 from previewctl.index.potential import Potential
-from previewctl.robot.load import load_robot
 from previewctl.robot.model import Geometry, Robot, Task
 from previewctl.scene.schema import Angles, ObstacleTable
 from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, show, table
@@ -68,7 +68,7 @@ FIGURES: tuple[Figure, ...] = get_args(Figure)
 class RobotSpec:
     """How the scenario's robot was loaded (to reload it, e.g. with exact meshes).
 
-    Attributes mirror :func:`previewctl.robot.load.load_robot`'s arguments.
+    Attributes mirror :func:`previewctl.index.load.load_robot`'s arguments.
     """
 
     source: Annotated[Text, Field(description="a URDF path, 'planar4' or an example-robot-data name like 'panda'")]

@@ -1,6 +1,6 @@
 """The visual meshes of an arm (from its URDF's ``<visual>`` elements) and where they are for a configuration.
 
-The arm of a run is Pinocchio's reduced model (locked joints removed, :func:`~previewctl.robot.load.load_robot`).
+The arm of a run is Pinocchio's reduced model (locked joints removed, :func:`~previewctl.index.load.load_robot`).
 Its visual geometry belongs to the full model, so a configuration ``q`` of the reduced model is
 spread onto the full one by joint name, with every locked joint at its neutral value (where the
 loader locked it).
@@ -14,7 +14,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from previewctl.robot.load import load_visual
+from previewctl.index.load import load_visual
 from previewctl.robot.model import Robot
 from previewctl.sim.schema import RobotSpec
 from previewctl.types import Array

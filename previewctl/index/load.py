@@ -19,6 +19,10 @@ example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
   its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
   distances are lower bounds, computed about 2.5x faster than against hulls); ``"mesh"`` keeps the
   URDF geometry exactly.
+
+The loader sits in the index, not in :mod:`previewctl.robot`: a loaded :class:`~previewctl.robot.model.Robot`
+carries the structural rank of each control point's avoidance matrix, computed here with
+:func:`~previewctl.index.amsi.avoidance` (which also refuses a task the hand cannot follow).
 """
 
 from __future__ import annotations
