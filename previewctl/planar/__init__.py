@@ -1,1 +1,5 @@
-"""The closed-form fast path for planar arms: chain data, vectorised kinematics and AMSI, distances, redundancy map."""
+"""Pure closed forms for planar arms, vectorised: the distances from link capsules to obstacle primitives.
+
+The planar chain's facts are :mod:`previewctl.robot.planar`, its AMSI :mod:`previewctl.index.planar` and its
+redundancy map :mod:`previewctl.search.planar`; the kernels here import none of them.
+"""
