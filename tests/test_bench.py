@@ -18,7 +18,8 @@ from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, settings_hash, simulate_spec
 from previewctl.bench.runs import run as bench_run
-from previewctl.bench.scenes import BenchScene, SceneSettings, generate
+from previewctl.bench.scenes import BenchScene, generate
+from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main

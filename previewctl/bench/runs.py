@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
-from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, cached_robot
+from previewctl.bench.scenes import PROFILES, BenchScene, cached_robot
+from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.oracle import OracleController
 from previewctl.control.params import ControllerSpec, ExecutionMode

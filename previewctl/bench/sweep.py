@@ -1,7 +1,7 @@
 """The sweep: the run matrix, what is missing from the results, and running it on a Dask cluster.
 
 Tasks are plain specs (:class:`~previewctl.bench.runs.RunSpec`, and for the scenes the robot name,
-index, seed and :class:`~previewctl.bench.scenes.SceneSettings`); each worker builds its own
+index, seed and :class:`~previewctl.bench.settings.SceneSettings`); each worker builds its own
 Pinocchio and Coal objects. A scene is generated once, as a task of its own that its runs depend on,
 unless ``scenes.jsonl`` already holds it. The client appends each result to ``results.jsonl`` as it
 arrives, so a sweep stopped at any point resumes with the runs that are missing.
@@ -20,7 +20,8 @@ from typing import Any
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
-from previewctl.bench.scenes import PROFILES, BenchScene, SceneSettings, generate
+from previewctl.bench.scenes import PROFILES, BenchScene, generate
+from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
 from previewctl.viz.replay import REPLAY_NAME

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from previewctl.bench.metrics import run_metrics
-from previewctl.bench.scenes import SceneSettings
+from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.oracle import OracleController
 from previewctl.errors import UnreachableTargetError

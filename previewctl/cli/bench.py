@@ -12,7 +12,8 @@ from tqdm import tqdm
 from previewctl.bench.keep import FAILURES_KEPT
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.scenes import PROFILES, SceneSettings
+from previewctl.bench.scenes import PROFILES
+from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import Commands
 from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, SEEDED_CONTROLLERS
