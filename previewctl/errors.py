@@ -53,3 +53,8 @@ class UnreachableTargetError(PreviewctlError, ValueError):
 
 class OutputError(PreviewctlError, ValueError):
     """An output file or folder that cannot be written (a missing parent, a folder where a file goes, ...)."""
+
+
+class IgnoredSettingWarning(UserWarning):
+    """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
+    controllers); the run goes on without it, and its log records it."""

@@ -20,7 +20,7 @@ from previewctl.bench.metrics import run_metrics
 from previewctl.bench.scenes import PROFILES, BenchScene, cached_robot
 from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import OracleController
+from previewctl.control.laws import Oracle
 from previewctl.control.params import ControllerSpec, ExecutionMode
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
@@ -93,8 +93,8 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
     controller = make_controller(scenario, seed=spec.seed)
-    if isinstance(controller.law, OracleController) and controller.law.window is None and scene.oracle_plan:
-        controller.law.motion = ReachMotion.from_json(scene.oracle_plan)
+    if isinstance(controller.law, Oracle) and scene.oracle_plan:
+        controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
     return scenario, simulate(scenario, controller=controller, exact_evaluator=exact)
 
 

@@ -88,13 +88,11 @@ class Sweep:
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
 
-        Each distinct run once (:func:`~previewctl.control.params.distinct_run`): ``none`` under the QP is the
-        ``qp`` run, and ``qp`` under the pseudo-inverse is the ``none`` run; a controller that draws no random
-        numbers runs for seed 0 only (:func:`~previewctl.control.params.run_seed`)."""
-        pairs = dict.fromkeys(
-            control_params.distinct_run(name, execution)
-            for name in self.controllers or control_params.CONTROLLER_NAMES
-            for execution in self.executions or control_params.EXECUTION_MODES)
+        ``none`` runs under the pseudo-inverse only and ``qp`` under the QP only
+        (:func:`~previewctl.control.params.controller_runs`); a controller that draws no random numbers runs for
+        seed 0 only (:func:`~previewctl.control.params.run_seed`)."""
+        pairs = control_params.controller_runs(self.controllers or control_params.CONTROLLER_NAMES,
+                                               self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)

@@ -32,7 +32,7 @@ import numpy as np
 from previewctl.bench.metrics import run_metrics
 from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import OracleController
+from previewctl.control.laws import Oracle
 from previewctl.errors import UnreachableTargetError
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.explore import explore
@@ -112,12 +112,13 @@ def _followed(scenario: Scenario, settings: SceneSettings, found: str, plan: Rea
     ``planned``: the wall and CPU time [s] ``plan`` took, counted in the run's."""
     start, cpu = time.perf_counter() - planned[0], time.process_time() - planned[1]
     oracle = make_controller(scenario, name="oracle")
-    if plan is not None and isinstance(oracle.law, OracleController):
-        oracle.law.motion = plan
+    if plan is not None and isinstance(oracle.law, Oracle):
+        oracle.law.planner.motion = plan
     metrics = run_metrics(simulate(scenario, controller=oracle))
     run = {**metrics, "execution": scenario.controller.params.execution, "seed": scenario.seed,
            "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}
-    made = oracle.law.motion.to_json() if isinstance(oracle.law, OracleController) and oracle.law.motion else None
+    motion = oracle.law.planner.motion if isinstance(oracle.law, Oracle) else None
+    made = motion.to_json() if motion is not None else None
     error, tolerance = 1e3 * metrics["max_hand_error"], 1e3 * settings.witness_tolerance
     if not metrics["collision_free"]:
         return Witnessed(False, f"{found}, but the oracle following it collides at t = "

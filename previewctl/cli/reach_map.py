@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.control.oracle import ORACLE_GENE_SPEED
+from previewctl.control.planner import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.planar import PlanarRedundancy

@@ -1,12 +1,18 @@
-"""The control-law interface: the state a law reads, the command it returns, and what it reports.
+"""What flows through one control cycle: the state, a law's null-space input, eq. 19's reference, the execution.
 
-A *control law* (one per mode: :class:`~previewctl.control.tracking.TrackingController`,
-:class:`~previewctl.control.gradient.GradientController`,
-:class:`~previewctl.control.preview.PreviewController`, :class:`~previewctl.control.reach.ReachController`)
-turns a :class:`ControlState` into a joint velocity. It does no bookkeeping of its own: the
-:class:`~previewctl.control.controller.Controller` that wraps it computes the kinematics once per
-configuration and decides when a camera frame is due. Use the ``Controller`` (``ctrl.step(q, t)``);
-call a law's ``command`` directly only to test it with a hand-made state.
+One cycle of :class:`~previewctl.control.controller.Controller` is a pipeline of parts::
+
+    ControlState --law--> NullInput --tracking.reference--> Reference --execution--> Executed
+                                                                     \\---------------> ControlInfo (all of it)
+
+* a *control law* (:mod:`previewctl.control.laws`, one class per controller name) turns the state into the
+  null-space input ``v`` of eq. 19 and the imaginary arms it steered toward (:class:`NullInput`);
+* the tracking reference (:func:`previewctl.control.tracking.reference`) is eq. 19 for that ``v``: the task term
+  ``J#(ṙ_d + K_p e)``, the projected ``N v`` and the task-priority budget (:class:`Reference`);
+* an *execution* (:mod:`previewctl.control.execution`: the pseudo-inverse with clamping and saturation, or the
+  constrained QP) turns the reference into the joint velocity that is applied (:class:`Executed`).
+
+A law never holds another law and never executes its command; the controller composes the parts.
 """
 
 from __future__ import annotations
@@ -17,7 +23,6 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import pinocchio as pin
 
-from previewctl.control.params import ControllerParams
 from previewctl.kinematics import Kinematics
 from previewctl.path import HandPath
 from previewctl.types import Array
@@ -25,16 +30,20 @@ from previewctl.types import Array
 
 @dataclass(frozen=True)
 class ControlState:
-    """What a control law sees at one control cycle.
+    """What the parts of a control cycle see.
 
     Attributes:
-        kin: kinematics of the current configuration (batch of one).
+        q: the arm's configuration ``(nq,)``.
+        t: time [s] on the path's clock.
+        kin: kinematics of ``q`` (batch of one), computed once per cycle.
         path: the desired hand path.
         dt: how long the command will be applied [s] (the position limits keep ``q + q̇ dt`` inside).
         frame_due: whether a camera frame arrives at this cycle (GA-based laws run a generation).
-        data: a Pinocchio ``Data`` of the arm the law may use for predictions (``None``: one is made when needed).
+        data: a Pinocchio ``Data`` of the arm for predictions (``None``: one is made when needed).
     """
 
+    q: Array
+    t: float
     kin: Kinematics
     path: HandPath
     dt: float
@@ -43,68 +52,154 @@ class ControlState:
 
 
 @dataclass(frozen=True)
-class ControlInfo:
-    """What a controller computed at one cycle.
+class NullInput:
+    """A control law's output: the null-space input of eq. 19 and what it steered toward.
 
     Attributes:
-        desired_position: ``r_d(t)`` [m], shape ``(3,)`` (z = 0 for planar paths).
-        desired_velocity: ``ṙ_d(t)`` [m/s], shape ``(3,)``.
-        hand_position: the hand ``r`` at the configuration given [m], shape ``(3,)``.
-        task_error: the task error fed back (``(m,)``: [m], and [rad] for the pose rows).
-        v: the null-space input, shape ``(nv,)``, joint-limit avoidance included.
-        qdot_task: ``J#(ṙ_d + K_p e)`` [rad/s], shape ``(nv,)``.
-        qdot_null: ``N v`` [rad/s], shape ``(nv,)``; ``J qdot_null = 0``.
-        qdot_requested: ``qdot_task + null_scale · qdot_null``, before the limits [rad/s].
-        null_scale: the factor in [0, 1] on the null-space term (task priority, see
-            :mod:`previewctl.control.tracking`).
-        scale: the task scaling ``s`` in [0, 1] of the joint-limit saturation (1 = the whole task velocity).
-        clamped: whether a joint was saturated at a position or speed bound.
-        damping: the damping ``λ`` used [m/rad].
-        dt: the period the position limits were computed for [s].
-        frame_due: whether this cycle started a camera frame (the searches ran one generation).
-        targets: the imaginary arms ``q̃_i``, ``(p, nq)`` (preview modes), else ``None``.
-        target_amsip: their AMSIP values ``(p,)`` (preview modes), else ``None``.
-        execution: ``pseudoinverse`` (eq. 19 with clamping and scaling) or ``qp``
-            (:mod:`previewctl.control.execution`); with ``qp``, ``scale`` is 1 and ``null_scale`` 1.
-        dampers: collision damper rows of the QP (pairs within the influence distance).
-        active_dampers: how many of them bind at the solution.
-        slack: the largest damper slack [m/s] (0: every damper held; > 0: the constraints were infeasible).
+        v: the null-space input [rad/s], ``(nv,)`` (before the joint-limit avoidance is added).
+        targets: the imaginary arms ``q̃_i``, ``(p, nq)`` (laws that steer toward configurations), else ``None``.
+        target_amsip: their AMSIP values ``(p,)``, else ``None``.
+    """
+
+    v: Array
+    targets: Array | None = None
+    target_amsip: Array | None = None
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Eq. 19 for a null-space input: ``q̇ = J#(ṙ_d + K_p e) + N v`` and its parts.
+
+    Attributes:
+        desired_position: ``r_d(t)`` [m], ``(3,)`` (z = 0 for planar paths).
+        desired_velocity: ``ṙ_d(t)`` [m/s], ``(3,)``.
+        hand_position: the hand ``r`` at ``q`` [m], ``(3,)``.
+        task_error: the task error ``e`` fed back (``(m,)``: [m], and [rad] for the pose rows).
+        J: the task Jacobian ``(m, nv)``.
+        xdot: the task velocity ``ṙ_d + K_p e`` with eq. 19's step correction [m/s, rad/s], ``(m,)``.
+        v: the null-space input with the joint-limit avoidance [rad/s], ``(nv,)``.
+        qdot_task: ``J# xdot`` [rad/s], ``(nv,)``.
+        qdot_null: ``N v`` [rad/s], ``(nv,)``; ``J qdot_null = 0``.
+        budget: the largest ``α`` in [0, 1] with ``qdot_task + α qdot_null`` within the speed limits (task
+            priority, :func:`~previewctl.control.tracking.null_space_budget`).
+        damping: the damping ``λ`` of ``J#`` [m/rad].
     """
 
     desired_position: Array
     desired_velocity: Array
     hand_position: Array
     task_error: Array
+    J: Array
+    xdot: Array
     v: Array
     qdot_task: Array
     qdot_null: Array
-    qdot_requested: Array
+    budget: float
+    damping: float
+
+
+@dataclass(frozen=True)
+class Executed:
+    """What an execution applied.
+
+    Attributes:
+        qdot: the joint velocity applied [rad/s], ``(nv,)``, within the joint speed and position limits.
+        requested: the command the execution started from, before the limits [rad/s], ``(nv,)``.
+        null_scale: the factor in [0, 1] on the null-space term (1 under the QP).
+        scale: the task scaling ``s`` in [0, 1] of the saturation (1 = the whole task velocity; 1 under the QP).
+        clamped: whether a joint was held at a position or speed bound.
+        dt: the period the limits were computed for [s].
+        execution: ``pseudoinverse`` or ``qp`` (:mod:`previewctl.control.execution`).
+        dampers: collision damper rows of the QP (pairs within the influence distance).
+        active_dampers: how many of them bind at the solution.
+        slack: the largest damper slack [m/s] (0: every damper held; > 0: the constraints were infeasible).
+    """
+
+    qdot: Array
+    requested: Array
     null_scale: float
     scale: float
     clamped: bool
-    damping: float
     dt: float
-    frame_due: bool
-    targets: Array | None = None
-    target_amsip: Array | None = None
-    execution: str = "pseudoinverse"
+    execution: str
     dampers: int = 0
     active_dampers: int = 0
     slack: float = 0.0
 
+
+@dataclass(frozen=True)
+class ControlInfo:
+    """What one control cycle computed: the law's input, eq. 19's reference and what was executed.
+
+    Attributes:
+        reference: eq. 19 for the law's null-space input.
+        executed: what the execution applied.
+        frame_due: whether this cycle started a camera frame (the searches ran one generation).
+        targets: the imaginary arms ``q̃_i``, ``(p, nq)``, or ``None``.
+        target_amsip: their AMSIP values ``(p,)``, or ``None``.
+    """
+
+    reference: Reference
+    executed: Executed
+    frame_due: bool
+    targets: Array | None = None
+    target_amsip: Array | None = None
+
     @property
     def hand_error(self) -> float:
         """``|r_d − r|`` [m] over the task's position rows (the orientation error of a pose task is not in it)."""
-        return float(np.linalg.norm(self.task_error[:3]))
+        return float(np.linalg.norm(self.reference.task_error[:3]))
+
+
+@dataclass(frozen=True)
+class Composition:
+    """What a controller is made of, as the factory chose it (:func:`~previewctl.control.factory.compose`).
+
+    Attributes:
+        controller: the controller name.
+        law: the law's class (:mod:`previewctl.control.laws`).
+        execution: ``pseudoinverse`` or ``qp``.
+        imaginary_arms: the imaginary-arm policy (``argmax``, ``peaks`` or ``route``), or ``None``.
+        planner: ``dp`` (the reachability DP), ``sampled`` (the sampled search), ``sweeps`` (straight sweeps between
+            peaks), or ``None``.
+        ignored: the settings given that the controller does not read, as ``name = value``.
+    """
+
+    controller: str
+    law: str
+    execution: str
+    imaginary_arms: str | None = None
+    planner: str | None = None
+    ignored: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        parts = [f"{self.controller} ({self.law})", f"execution {self.execution}"]
+        if self.imaginary_arms is not None:
+            parts.append(f"imaginary arms {self.imaginary_arms}")
+        if self.planner is not None:
+            parts.append(f"planner {self.planner}")
+        if self.ignored:
+            parts.append(f"ignored: {'; '.join(self.ignored)}")
+        return ", ".join(parts)
 
 
 @runtime_checkable
 class ControlLaw(Protocol):
-    """One controller mode: a joint velocity from a :class:`ControlState`."""
+    """One controller name: the null-space input of eq. 19 from a :class:`ControlState`."""
 
     name: str
-    params: ControllerParams
 
-    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
-        """Joint velocity ``q̇`` [rad/s] ``(nv,)`` for time ``t`` [s] and configuration ``q`` ``(nq,)``."""
+    def null_input(self, state: ControlState) -> NullInput:
+        """The null-space input ``v`` [rad/s] ``(nv,)`` for the state, and the imaginary arms it steers toward."""
+        ...
+
+
+@runtime_checkable
+class Execution(Protocol):
+    """Turns eq. 19's reference into the joint velocity applied (:mod:`previewctl.control.execution`)."""
+
+    name: str
+
+    def __call__(self, state: ControlState, reference: Reference) -> Executed:
+        """The joint velocity [rad/s] to apply for ``state`` and ``reference``."""
         ...

@@ -13,9 +13,10 @@ as you like::
         print(ctrl.last_info.hand_error)             # what the cycle computed (ControlInfo)
 
 Per call, :meth:`Controller.step` validates ``q``, computes its kinematics once, decides from ``t``
-whether a camera frame is due, runs the control law (eq. 19 with the mode's null-space input) and executes
-its command: through the constrained QP of :mod:`previewctl.control.execution` (``execution = "qp"``, the
-default) or as eq. 19 with clamping and scaling (``"pseudoinverse"``, the paper's).
+whether a camera frame is due, and runs the parts (:mod:`previewctl.control.base`): the law's null-space input,
+eq. 19's reference for it (:func:`~previewctl.control.tracking.reference`) and the execution
+(:mod:`previewctl.control.execution`: the constrained QP, the default, or eq. 19 with clamping and saturation,
+the paper's). ``ctrl.describe()`` says which parts were chosen.
 
 Camera frames: the GA searches of the preview modes run one generation per frame of period
 ``frame`` (33 ms by default), whatever the rate of your loop. A frame is due at the first call and
@@ -28,9 +29,9 @@ from __future__ import annotations
 
 import math
 
-from previewctl.control.base import ControlInfo, ControlLaw, ControlState
-from previewctl.control.execution import QPExecution
+from previewctl.control.base import Composition, ControlInfo, ControlLaw, ControlState, Execution
 from previewctl.control.params import ControllerParams
+from previewctl.control.tracking import reference
 from previewctl.errors import ConfigurationError, ParameterError, PreviewctlError
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.path import HandPath
@@ -58,17 +59,19 @@ def positive_period(value: object, name: str) -> float:
 
 
 class Controller:
-    """A control law with the per-call bookkeeping: kinematics, camera frames, the last cycle's details.
+    """A control law, its execution, and the per-call bookkeeping: kinematics, camera frames, the last cycle.
 
     Build it with :func:`previewctl.make_controller`.
 
     Args:
-        law: the mode's control law (``law.command(t, q, state)``).
+        law: the controller's law (:mod:`previewctl.control.laws`).
+        execution: what turns eq. 19's reference into the joint velocity applied.
         robot: the arm the law was built for.
         path: the desired hand path ``r_d(t)``.
+        params: eq. 19's gains and limits (the law's settings too).
+        composition: what the factory chose (:meth:`describe`).
         frame: camera frame period [s].
         dt: control period [s] assumed at the first call (later calls use the time elapsed).
-        execution: the QP that executes the law's command, or ``None`` for eq. 19 as the law computed it.
 
     Raises:
         ParameterError: ``frame`` or ``dt`` not a time > 0.
@@ -77,31 +80,33 @@ class Controller:
     def __init__(
         self,
         law: ControlLaw,
+        execution: Execution,
         robot: Robot,
         path: HandPath,
+        params: ControllerParams,
+        composition: Composition,
         *,
         frame: float = FRAME_PERIOD,
         dt: float = CONTROL_PERIOD,
-        execution: QPExecution | None = None,
     ) -> None:
-        self.law, self.robot, self.path, self.execution = law, robot, path, execution
+        self.law, self.execution, self.robot, self.path, self.params = law, execution, robot, path, params
+        self._composition = composition
         self.frame = positive_period(frame, "frame")
         self.dt = positive_period(dt, "dt")
         self._reader = kinematics_reader(robot)  # built once: each step only reads through it
-        self._scratch = robot.model.createData()  # the law's predictions (eq. 19's step correction)
+        self._scratch = robot.model.createData()  # predictions (eq. 19's step correction)
         self._last_frame: int | None = None
         self._last_t: float | None = None
         self._last_info: ControlInfo | None = None
 
     @property
     def name(self) -> str:
-        """The mode: one of :data:`~previewctl.control.params.CONTROLLER_NAMES`."""
+        """The controller name: one of :data:`~previewctl.control.params.CONTROLLER_NAMES`."""
         return self.law.name
 
-    @property
-    def params(self) -> ControllerParams:
-        """The law's gains and settings."""
-        return self.law.params
+    def describe(self) -> Composition:
+        """Which law, imaginary-arm policy, planner and execution run, and which settings are ignored."""
+        return self._composition
 
     @property
     def last_info(self) -> ControlInfo:
@@ -143,12 +148,14 @@ class Controller:
         period = self._period(now, dt)
         frame = frame_index(now, self.frame)
         kin = kinematics(self.robot, Q, reader=self._reader)
-        state = ControlState(kin, self.path, period, frame_due=frame != self._last_frame, data=self._scratch)
-        qdot, info = self.law.command(now, Q[0], state)
-        if self.execution is not None:
-            qdot, info = self.execution(now, Q[0], state, info)
-        self._last_frame, self._last_t, self._last_info = frame, now, info
-        return qdot
+        state = ControlState(Q[0], now, kin, self.path, period, frame_due=frame != self._last_frame,
+                             data=self._scratch)
+        null = self.law.null_input(state)
+        ref = reference(self.robot, state, null.v, self.params)
+        executed = self.execution(state, ref)
+        self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip)
+        self._last_frame, self._last_t = frame, now
+        return executed.qdot
 
     def _period(self, t: float, dt: float | None) -> float:
         if dt is not None:
@@ -158,4 +165,5 @@ class Controller:
         return self.dt
 
     def __repr__(self) -> str:
-        return f"Controller({self.name!r}, robot={self.robot.name!r}, frame={self.frame}, dt={self.dt})"
+        return f"Controller({self.name!r}, robot={self.robot.name!r}, frame={self.frame}, dt={self.dt}, " \
+               f"execution={self.execution.name!r})"

@@ -1,6 +1,19 @@
-"""Eq. 19 executed as a constrained QP: hand task first, the controller's null-space motion second, and
-constraints that keep every guarded link clear of the obstacles (the velocity dampers of Faverjon &
-Tournassoud, as in NEO) and every joint inside its limits.
+"""Executions: eq. 19's reference turned into the joint velocity applied, within the joint limits.
+
+Every :class:`~previewctl.control.controller.Controller` has one (:class:`~previewctl.control.base.Execution`):
+
+* :class:`PseudoInverseExecution` (the paper's eq. 19): the reference ``q̇_task + α N v`` (``α`` the
+  task-priority budget) is applied unchanged when it is inside the box of one period
+  (:func:`~previewctl.control.tracking.velocity_box`: ``q + q̇ dt`` within the position limits, ``|q̇_j|`` within
+  the speed limits). Otherwise the task is re-solved by saturation in the null space
+  (:mod:`previewctl.control.saturation`, Flacco et al. 2012): the joint that leaves the box first is fixed at its
+  bound and the task is solved again with the other joints, repeatedly; if they cannot achieve it, the task
+  velocity is scaled down along its direction (``scale`` < 1). The null-space term is then projected on the free
+  joints and scaled into the box. Obstacles are not seen here: only the law's null-space input keeps the links
+  clear.
+* :class:`QPExecution`: eq. 19 as a constrained QP: hand task first, the law's null-space motion second, and
+  constraints that keep every guarded link clear of the obstacles (the velocity dampers of Faverjon &
+  Tournassoud, as in NEO) and every joint inside its limits. The rest of this docstring is about it.
 
 With ``q̇_ref = J#(ṙ_d + K_p e) + N v`` the command of eq. 19 (the mode's null-space input ``v``: a
 preview pull, a gradient or zero), the QP is
@@ -43,15 +56,22 @@ every CI platform, about 30 µs per solve at these sizes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 import qpsolvers
 
-from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.base import ControlState, Executed, Reference
 from previewctl.control.params import ControllerParams
-from previewctl.control.tracking import STEP_ITERATIONS, effective_velocity_limits, step_correction
+from previewctl.control.saturation import saturate
+from previewctl.control.tracking import (
+    STEP_ITERATIONS,
+    damped_pseudo_inverse,
+    effective_velocity_limits,
+    step_correction,
+    velocity_box,
+)
 from previewctl.kinematics import support_mask
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
@@ -88,8 +108,35 @@ def _cross(a: Array, b: Array) -> Array:
     return a[:, _CYCLE] * b[:, _CYCLE2] - a[:, _CYCLE2] * b[:, _CYCLE]
 
 
+class PseudoInverseExecution:
+    """Executes eq. 19's reference with clamping and saturation in the null space (module docstring).
+
+    Args:
+        robot: the arm.
+        params: ``velocity_scale``, ``damping`` and ``singular_threshold`` (the saturation's damped inverse).
+    """
+
+    name = "pseudoinverse"
+
+    def __init__(self, robot: Robot, params: ControllerParams) -> None:
+        self.robot, self.params = robot, params
+
+    def _inverse(self, A: Array) -> Array:
+        return damped_pseudo_inverse(A, self.params.damping, self.params.singular_threshold)[0]
+
+    def __call__(self, state: ControlState, reference: Reference) -> Executed:
+        """The applied ``q̇`` [rad/s]: the reference if it is inside the box, else its saturation."""
+        requested = reference.qdot_task + reference.budget * reference.qdot_null
+        low, high = velocity_box(self.robot, state.q, state.dt, self.params.velocity_scale)
+        if np.all((requested >= low) & (requested <= high)):
+            return Executed(requested, requested, reference.budget, 1.0, False, state.dt, self.name)
+        sat = saturate(reference.J, reference.xdot, reference.v, low, high, self._inverse)
+        return Executed(sat.qdot, requested, sat.null_scale, sat.task_scale, bool(sat.saturated.any()), state.dt,
+                        self.name)
+
+
 class QPExecution:
-    """Executes a control law's eq. 19 command as the constrained QP of the module docstring.
+    """Executes eq. 19's reference as the constrained QP of the module docstring.
 
     Args:
         robot: the arm (its collision geometry: convex hulls or capsules).
@@ -97,6 +144,8 @@ class QPExecution:
         params: the QP settings (``task_weight``, ``slack_weight``, ``damper_gain``, ``influence_distance``,
             ``safety_distance``, ``limit_margin``, ``velocity_scale``).
     """
+
+    name = "qp"
 
     def __init__(self, robot: Robot, scene: Scene, params: ControllerParams) -> None:
         self.robot, self.scene, self.params = robot, scene, params
@@ -154,28 +203,28 @@ class QPExecution:
         lower = -np.minimum(self._speed, np.maximum(position - self._lower, 0.0) * rate)
         return lower, upper
 
-    def __call__(self, t: float, q: Array, state: ControlState, info: ControlInfo) -> tuple[Array, ControlInfo]:
-        """The executed ``q̇`` [rad/s] for the law's cycle ``info``, and ``info`` completed with the QP's report."""
-        reference = info.qdot_task + info.qdot_null
+    def __call__(self, state: ControlState, reference: Reference) -> Executed:
+        """The executed ``q̇`` [rad/s] for eq. 19's reference ``q̇_ref = q̇_task + N v``, and the QP's report."""
+        t, q = state.t, state.q
+        requested = reference.qdot_task + reference.qdot_null
         lower, upper = self.bounds(q, state.dt)
         rows = self.dampers(q, t)
         slack = 0.0
-        if (reference >= lower).all() and (reference <= upper).all() and (rows.G @ reference <= rows.h).all():
-            qdot = reference.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution
+        if (requested >= lower).all() and (requested <= upper).all() and (rows.G @ requested <= rows.h).all():
+            qdot = requested.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution
         else:
-            J, W = state.kin.J_task[0], self.params.task_weight
+            J, W = reference.J, self.params.task_weight
             P = W * (J.T @ J) + self._identity
-            c = -P @ reference
+            c = -P @ requested
             qdot, slack = self._solve(P, c, rows, lower, upper)
-            # the law corrected eq. 19's step for the q̇ it asked for; the QP runs another: correct for that one
+            # the reference corrected eq. 19's step for the q̇ it asked for; the QP runs another: correct for that
             for _ in range(STEP_ITERATIONS if self.params.step_correction else 0):
-                c = c - W * (J.T @ step_correction(self.robot, t, q, state, qdot, info.task_error, self.params))
+                c = c - W * (J.T @ step_correction(self.robot, state, qdot, reference.task_error, self.params))
                 qdot, slack = self._solve(P, c, rows, lower, upper)
         active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL))
         clamped = bool(np.any((qdot >= upper - _ACTIVE_TOL) | (qdot <= lower + _ACTIVE_TOL)))
-        report = replace(info, qdot_requested=reference, scale=1.0, clamped=clamped, null_scale=1.0,
-                         execution="qp", dampers=int(rows.h.size), active_dampers=active, slack=slack)
-        return qdot, report
+        return Executed(qdot, requested, 1.0, 1.0, clamped, state.dt, self.name, dampers=int(rows.h.size),
+                        active_dampers=active, slack=slack)
 
     def _solve(self, P: Array, c: Array, rows: Dampers, lower: Array, upper: Array) -> tuple[Array, float]:
         """The QP ``min ½ q̇ᵀPq̇ + cᵀq̇`` under the bounds and the dampers, softened if infeasible: ``(q̇, max slack)``."""

@@ -1,14 +1,30 @@
-"""Building a controller: :func:`make_controller` (from a scenario or from parts) and :func:`build_law`.
+"""Building a controller: :func:`make_controller` (from a scenario or from parts) and :func:`compose`.
 
-The names: ``none``, ``qp``, ``gradient``, ``single``, ``multi``, ``reach``, ``horizon`` (the reachability DP
-over the preview window, replanned) and ``oracle`` (non-causal: it follows the reachability DP's best motion
-over the whole future, a reference for the others; on spatial arms both plan by the sampled search of
-:mod:`previewctl.search.roadmap`). Every one is
-executed through the constrained QP unless ``params.execution = "pseudoinverse"``; ``qp`` always is.
+:func:`compose` is the one place that maps a controller name and a robot to parts
+(:mod:`previewctl.control.laws` has one class per name):
 
-Coherent ``multi`` with ``imaginary_arms = "route"`` (the default) is built as
-:class:`~previewctl.control.reach.ReachController` with ``blend=True`` wherever that plans its moves (spatial arms,
-planar arms of up to 4 joints): eq. 21 on the planned route's configurations.
+========== ===========================================================================================
+name       parts
+========== ===========================================================================================
+none       :class:`~previewctl.control.laws.Tracking`; always the pseudo-inverse execution
+qp         :class:`~previewctl.control.laws.QPBaseline`; always the QP execution
+gradient   :class:`~previewctl.control.laws.Gradient` on :class:`~previewctl.control.nullspace.AmsipGradient`
+single     one imaginary arm: tracked peak (coherent) or argmax (``coherent = false``)
+multi      ``len(weights)`` imaginary arms: points of a route planned toward their peaks (``route``: coherent, on an
+           arm the window planner covers), tracked peaks (``peaks``: coherent, ``imaginary_arms = "peaks"`` or an
+           arm the planner does not cover) or argmax (``coherent = false``)
+reach      ``len(weights)`` imaginary arms and a planner toward their peaks (coherent, on an arm the window planner
+           covers), else straight sweeps (:class:`~previewctl.control.sweeps.SweepRoutes`)
+horizon    a :class:`~previewctl.control.planner.WindowPlanner` over ``plan_window``, replanned
+oracle     a :class:`~previewctl.control.planner.WindowPlanner` over the whole future (non-causal)
+========== ===========================================================================================
+
+The window planner covers spatial arms (the sampled search) and planar arms of up to 4 joints (the DP). Every
+controller but ``none`` and ``qp`` is executed by ``params.execution`` (the QP by default). A combination a law
+cannot honour is refused with a :class:`~previewctl.errors.ParameterError`; a setting the chosen controller does not
+read (set to other than its default, e.g. by a scenario file shared between controllers) is reported by an
+:class:`~previewctl.errors.IgnoredSettingWarning` and recorded in the :class:`~previewctl.control.base.Composition`
+(``ctrl.describe()``, and the run log).
 
 Randomness: the GA searches of ``single``, ``multi`` and ``reach`` draw from a
 ``numpy.random.Generator``, never from numpy's global state. ``seed`` is an ``int`` (the generator is
@@ -18,22 +34,37 @@ stream (``Generator.spawn``), so the arms are independent and the same seed give
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from previewctl.control.base import ControlLaw
+from previewctl.control.base import Composition, ControlLaw, Execution
 from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller
-from previewctl.control.execution import QPExecution
-from previewctl.control.gradient import GradientController
-from previewctl.control.oracle import OracleController
-from previewctl.control.params import CONTROLLER_NAMES, ControllerParams, ControllerSpec
-from previewctl.control.preview import PreviewController, SearchFactory, SearchLike
-from previewctl.control.reach import ReachController
-from previewctl.control.tracking import TrackingController
-from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.control.execution import PseudoInverseExecution, QPExecution
+from previewctl.control.imaginary import (
+    ArgmaxArms,
+    ArmPolicy,
+    ImaginaryArms,
+    RoutePoints,
+    SearchFactory,
+    SearchLike,
+    TrackedPeaks,
+)
+from previewctl.control.laws import Gradient, Horizon, MultiPreview, Oracle, QPBaseline, Reach, SinglePreview, Tracking
+from previewctl.control.nullspace import AmsipGradient
+from previewctl.control.params import (
+    CONTROLLER_NAMES,
+    SETTING_GROUPS,
+    ControllerParams,
+    ControllerSpec,
+    execution_of,
+)
+from previewctl.control.planner import PeakPlanner, PlanTiming, WindowPlanner
+from previewctl.control.sweeps import SweepRoutes
+from previewctl.errors import IgnoredSettingWarning, ParameterError, UnknownNameError
 from previewctl.index.amsi import IndexParams
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.potential import Potential
@@ -42,6 +73,7 @@ from previewctl.robot.model import Robot
 from previewctl.scene.shapes import Scene
 from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
+from previewctl.search.planar import PlanarRedundancy
 
 Seed = int | np.random.Generator | None
 """An ``int`` seed, a ``numpy.random.Generator``, or ``None`` (see :func:`make_controller`)."""
@@ -110,8 +142,8 @@ def make_controller(
     another mode in the same scene).
 
     Args:
-        source: a scenario (:func:`previewctl.load_scenario`) or a controller name: ``none``,
-            ``gradient``, ``single``, ``multi`` or ``reach``.
+        source: a scenario (:func:`previewctl.load_scenario`) or a controller name, one of
+            :data:`~previewctl.control.params.CONTROLLER_NAMES`.
         name: the controller name, with a scenario (default: the scenario's).
         robot: the arm (its search geometry: convex or capsules); required without a scenario.
         path: the desired hand path; required without a scenario.
@@ -130,7 +162,10 @@ def make_controller(
     Raises:
         UnknownNameError: an unknown controller name (the message lists the valid ones).
         ParameterError: ``source`` neither a scenario nor a name, a missing ``robot``/``path``,
-            or a bad ``frame``/``dt``/``seed``.
+            a bad ``frame``/``dt``/``seed``, or settings the controller cannot honour (see :func:`compose`).
+
+    Warns:
+        IgnoredSettingWarning: a setting the controller does not read (see :func:`compose`).
     """
     base = _defaults(source, name)
     robot = base.robot if robot is None else robot
@@ -149,15 +184,9 @@ def make_controller(
     )
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
-    law = build_law(spec, robot, evaluator, rng, search_factory=search_factory)
-    execution = QPExecution(robot, scene, spec.params) if uses_qp(spec) else None
-    return Controller(law, robot, path, frame=base.frame if frame is None else frame,
-                      dt=base.dt if dt is None else dt, execution=execution)
-
-
-def uses_qp(spec: ControllerSpec) -> bool:
-    """Whether the controller ``spec`` names is executed by the constrained QP (``qp`` always is)."""
-    return spec.name == "qp" or spec.params.execution == "qp"
+    parts = compose(spec, robot, scene, evaluator, rng, search_factory=search_factory)
+    return Controller(parts.law, parts.execution, robot, path, spec.params, parts.composition,
+                      frame=base.frame if frame is None else frame, dt=base.dt if dt is None else dt)
 
 
 @dataclass(frozen=True)
@@ -201,46 +230,172 @@ def _generator(seed: int | np.random.Generator) -> np.random.Generator:
     return np.random.default_rng(int(seed))
 
 
-def build_law(
+@dataclass(frozen=True)
+class Parts:
+    """What :func:`compose` builds: the law, its execution, and the record of what was chosen."""
+
+    law: ControlLaw
+    execution: Execution
+    composition: Composition
+
+
+def compose(
     spec: ControllerSpec,
     robot: Robot,
+    scene: Scene,
     evaluator: Evaluator,
     rng: np.random.Generator,
     *,
     search_factory: SearchFactory | None = None,
-) -> ControlLaw:
-    """The control law ``spec`` names, without the loop bookkeeping of :class:`Controller`.
+) -> Parts:
+    """The parts of the controller ``spec`` names, on ``robot`` in ``scene`` (the table of the module docstring).
 
     Args:
         spec: name and parameters.
         robot: the arm (the search robot: convex geometry).
-        evaluator: AMSIP evaluator for the gradient and the searches.
+        scene: the obstacles (the QP execution's dampers).
+        evaluator: AMSIP evaluator for the gradient, the searches and the planner.
         rng: random generator; each imaginary arm gets an independent child stream.
-        search_factory: ``factory(i, rng_i)`` building the search of preview ``i``; default: a
+        search_factory: ``factory(i, rng_i)`` building the search of imaginary arm ``i``; default: a
             :class:`previewctl.search.ga.OneStepGA` over :func:`previewctl.search.maps.redundancy_map`.
+
+    Raises:
+        ParameterError: ``imaginary_arms = "route"`` for ``multi`` on an arm the window planner does not cover.
+
+    Warns:
+        IgnoredSettingWarning: settings the controller does not read (also in the composition's ``ignored``).
+    """
+    name, params = spec.name, spec.params
+    execution_name = execution_of(name, params)
+    execution: Execution = (QPExecution(robot, scene, params) if execution_name == "qp"
+                            else PseudoInverseExecution(robot, params))
+    read = set(SETTING_GROUPS["tracking"]) | (set(SETTING_GROUPS["qp"]) if execution_name == "qp" else set())
+    if params.execution == execution_name:
+        read.add("execution")
+    law: ControlLaw
+    policy: str | None = None
+    planner: str | None = None
+    if name == "none":
+        law = Tracking(robot.nv)
+    elif name == "qp":
+        law = QPBaseline(robot.nv)
+    elif name == "gradient":
+        law = Gradient(AmsipGradient(robot, evaluator, params))
+        read |= set(SETTING_GROUPS["gradient"])
+    elif name == "oracle":
+        window = WindowPlanner(robot, evaluator, PlanTiming())
+        law, planner = Oracle(robot, params, window), window.kind
+        read.add("gain")
+    elif name == "horizon":
+        window = WindowPlanner(robot, evaluator, PlanTiming.of(params))
+        law, planner = Horizon(robot, params, window), window.kind
+        read |= {*SETTING_GROUPS["preview"], *SETTING_GROUPS["plan"]}
+    else:
+        law, policy, planner = _preview(spec, robot, evaluator, rng, search_factory)
+        read |= _preview_reads(name, params, policy, planner)
+    ignored = _ignored(name, params, read)
+    composition = Composition(name, type(law).__name__, execution.name, policy, planner, ignored)
+    return Parts(law, execution, composition)
+
+
+def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.random.Generator,
+             search_factory: SearchFactory | None) -> tuple[ControlLaw, str | None, str | None]:
+    """The laws with imaginary arms (``single``, ``multi``, ``reach``): ``(law, imaginary-arm policy, planner)``."""
+    name, params = spec.name, spec.params
+    planar = robot.planar is not None
+    covered = not planar or robot.nq <= 4  # the window planner's reach: the sampled search, or the DP's grid
+    weights = (1.0,) if name == "single" else params.weights
+    factory = search_factory or _ga_factory(robot, evaluator, params)
+    streams = rng.spawn(len(weights))
+    searches = [factory(i, streams[i]) for i in range(len(weights))]
+    if name == "reach":
+        arms = ImaginaryArms(robot, searches, params.preview_time)
+        keep = (robot.nv - 1,) if params.coherent and planar else ()
+        if params.coherent and covered:
+            peak_planner = _peak_planner(robot, evaluator, params)
+            return Reach(robot, params, arms, peak_planner, keep=keep), None, peak_planner.planner.kind
+        sweeps = SweepRoutes(robot, params, evaluator, redundancy_map(robot), keep=keep)
+        return Reach(robot, params, arms, sweeps, keep=keep), None, "sweeps"
+    policy = _policy_name(spec, robot, covered)
+    local = AmsipGradient(robot, evaluator, params) if params.with_gradient else None
+    arm_policy: ArmPolicy
+    planner: str | None = None
+    if policy == "route":
+        peak_planner = _peak_planner(robot, evaluator, params)
+        arm_policy = RoutePoints(robot, ImaginaryArms(robot, searches, params.preview_time), peak_planner,
+                                 params.settle_frames)
+        planner = peak_planner.planner.kind
+    elif policy == "peaks":
+        branches = PlanarRedundancy(robot) if planar else None
+        arm_policy = TrackedPeaks(robot, ImaginaryArms(robot, searches, params.preview_time, branches), params)
+    else:
+        arm_policy = ArgmaxArms(ImaginaryArms(robot, searches, params.preview_time))
+    law_class = SinglePreview if name == "single" else MultiPreview
+    return law_class(robot, params, arm_policy, weights, local), policy, planner
+
+
+def _preview_reads(name: str, params: ControllerParams, policy: str | None, planner: str | None) -> set[str]:
+    """The settings ``single``, ``multi`` and ``reach`` read, besides eq. 19's and the execution's."""
+    read = {"gain", "preview_time", "coherent", *SETTING_GROUPS["ga"]}
+    if name != "single":
+        read |= {"weights", "previews"}
+    if name == "multi" and params.coherent:
+        read.add("imaginary_arms")
+    if name != "reach":
+        read.add("with_gradient")
+        if params.with_gradient:
+            read |= set(SETTING_GROUPS["gradient"])
+    if policy == "peaks":
+        read |= set(SETTING_GROUPS["peaks"])
+    if (name == "reach" and params.coherent) or policy == "route":  # the routes toward the peaks
+        read |= {"hysteresis", "track_radius", "settle_frames"}
+    if planner in ("dp", "sampled"):
+        read |= set(SETTING_GROUPS["plan"])
+    return read
+
+
+def _policy_name(spec: ControllerSpec, robot: Robot, covered: bool) -> str:
+    """``argmax``, ``peaks`` or ``route`` for ``single`` or ``multi`` (see the module docstring).
+
+    Raises:
+        ParameterError: ``imaginary_arms = "route"`` on an arm the window planner does not cover.
     """
     params = spec.params
-    if spec.name in ("none", "qp"):
-        return TrackingController(robot, params, spec.name)
-    if spec.name == "gradient":
-        return GradientController(robot, evaluator, params)
-    if spec.name == "oracle":  # non-causal reference: plans over the whole future at its first command
-        return OracleController(robot, params, evaluator)
-    if spec.name == "horizon":  # causal: replans over the preview window [t, t + p t̃]
-        return OracleController.horizon(robot, params, evaluator)
-    mode = "multi" if spec.name == "reach" else spec.name
-    count = len(params.preview_weights(mode))
-    factory = search_factory or _ga_factory(robot, evaluator, params, spec.name)
-    streams = rng.spawn(count)
-    searches = [factory(i, streams[i]) for i in range(count)]
-    routed = spec.name == "multi" and params.imaginary_arms == "route" and ReachController.plans(robot, params)
-    if spec.name == "reach" or routed:
-        return ReachController(robot, params, evaluator, searches, redundancy_map(robot), blend=spec.name == "multi")
-    return PreviewController(robot, params, spec.name, searches, evaluator)
+    if not params.coherent:
+        return "argmax"
+    if spec.name == "single":
+        return "peaks"
+    if params.imaginary_arms == "route" and not covered:
+        raise ParameterError(
+            f"imaginary_arms = 'route' needs an arm the window planner covers (a spatial arm, or a planar arm of at "
+            f"most 4 joints); {robot.name!r} is planar with {robot.nq} joints: use imaginary_arms = 'peaks', or leave "
+            "it out (the default picks 'peaks' there)")
+    return params.imaginary_arms or ("route" if covered else "peaks")
 
 
-def _ga_factory(robot: Robot, evaluator: Evaluator, params: ControllerParams, mode: str) -> SearchFactory:
-    """The default search factory: one 1-step GA per imaginary arm."""
+def _peak_planner(robot: Robot, evaluator: Evaluator, params: ControllerParams) -> PeakPlanner:
+    """The window planner toward the imaginary arms' peaks of coherent ``reach`` and ``multi`` on the route."""
+    return PeakPlanner(robot, WindowPlanner(robot, evaluator, PlanTiming.of(params)), hysteresis=params.hysteresis,
+                       track_radius=params.track_radius)
+
+
+def _ignored(name: str, params: ControllerParams, read: set[str]) -> tuple[str, ...]:
+    """The settings of ``params`` set to other than their default that controller ``name`` does not read, each
+    warned about once as ``field = value``."""
+    ignored = []
+    for f in fields(ControllerParams):
+        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc,operator]
+        value = getattr(params, f.name)
+        if f.name not in read and value != default:
+            ignored.append(f"{f.name} = {value!r}")
+    if ignored:
+        warnings.warn(f"controller {name!r} does not use {'; '.join(ignored)}: ignored", IgnoredSettingWarning,
+                      stacklevel=3)
+    return tuple(ignored)
+
+
+def _ga_factory(robot: Robot, evaluator: Evaluator, params: ControllerParams) -> SearchFactory:
+    """The default search factory: one 1-step GA per imaginary arm, all on one redundancy map."""
     redundancy = redundancy_map(robot)
     options: Mapping[str, Any] = dict(params.ga_options)
 

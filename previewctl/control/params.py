@@ -9,6 +9,7 @@ The one list of controller names is :data:`ControllerName`; :data:`CONTROLLER_NA
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal, get_args
 
@@ -43,7 +44,8 @@ ExecutionMode = Literal["qp", "pseudoinverse"]
 dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""
 ImaginaryArms = Literal["route", "peaks"]
 """Where coherent ``multi`` puts its imaginary arms: on the route planned as ``reach`` plans it (``route``: where the
-plan puts the arm at the preview times), or each on one tracked GA peak (``peaks``, :mod:`previewctl.control.peaks`)."""
+plan puts the arm at the preview times), or each on one tracked GA peak (``peaks``, :mod:`previewctl.control.peaks`);
+see :mod:`previewctl.control.imaginary`."""
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
@@ -58,15 +60,22 @@ def run_seed(name: str, seed: int) -> int:
     return seed if name in SEEDED_CONTROLLERS else 0
 
 
-def distinct_run(name: str, execution: str) -> tuple[str, str]:
-    """The run that controller ``name`` under ``execution`` is, as ``(controller, execution)``: ``none`` under the
-    QP is the ``qp`` baseline (the QP layer with no null-space motion), and ``qp`` under the pseudo-inverse is
-    ``none`` (eq. 19 with no null-space motion). Any other pair is itself, so each distinct run has one name."""
-    if name == "none" and execution == "qp":
-        return "qp", "qp"
-    if name == "qp" and execution == "pseudoinverse":
-        return "none", "pseudoinverse"
-    return name, execution
+FIXED_EXECUTION: dict[str, str] = {"none": "pseudoinverse", "qp": "qp"}
+"""The controllers that always run one execution: ``none`` is eq. 19 alone (the pseudo-inverse), ``qp`` the same
+law under the constrained QP. Every other controller runs the execution its ``execution`` setting names."""
+
+
+def execution_of(name: str, params: ControllerParams) -> str:
+    """The execution controller ``name`` runs with ``params``: its own (:data:`FIXED_EXECUTION`) or
+    ``params.execution``."""
+    return FIXED_EXECUTION.get(name, params.execution)
+
+
+def controller_runs(names: Sequence[str], executions: Sequence[str]) -> list[tuple[str, str]]:
+    """The runs of ``names`` × ``executions`` as ``(controller, execution)`` pairs, in order (names outer): a
+    controller with its own execution (:data:`FIXED_EXECUTION`) runs under that one only, if it is asked for."""
+    return [(name, execution) for name in names for execution in executions
+            if FIXED_EXECUTION.get(name, execution) == execution]
 
 
 SPATIAL_NEIGHBOURS = 16
@@ -114,7 +123,12 @@ PreviewWeights = Annotated[tuple[Finite, ...], AfterValidator(_preview_weights)]
 
 @dataclass(frozen=True)
 class ControllerParams(Checked):
-    """Parameters of every controller (each mode reads the ones it needs).
+    """Parameters of every controller, in the groups of :data:`SETTING_GROUPS` (eq. 19's tracking, the QP, the
+    preview, the GA, the tracked peaks, the planner, the AMSIP gradient) and the mode switches ``execution``,
+    ``coherent``, ``imaginary_arms``, ``with_gradient`` and ``hysteresis``.
+
+    Each controller reads the groups and fields it needs; the factory warns about a field set (to other than its
+    default) that the chosen controller does not read, and records it (:func:`~previewctl.control.factory.compose`).
 
     Attributes:
         gain: ``K_v`` of eqs. 20/21 [1/s]: one number or one per velocity coordinate.
@@ -142,10 +156,10 @@ class ControllerParams(Checked):
             the pull in (:mod:`previewctl.control.peaks`); ``multi`` puts its imaginary arms where
             ``imaginary_arms`` says; ``reach`` plans its moves over a window. ``False`` is the paper's literal
             eq. 20/21 (each frame's argmax of each imaginary arm, any branch) and ``reach``'s straight sweeps.
-        imaginary_arms: coherent ``multi``'s imaginary arms: ``"route"`` (the default), where the route that
-            coherent ``reach`` plans puts the arm at the preview times; ``"peaks"``, each on one tracked peak (as
-            ``single``). ``"route"`` needs an arm the planner covers (spatial, or planar with at most 4 joints): on
-            other arms ``multi`` uses the tracked peaks.
+        imaginary_arms: coherent ``multi``'s imaginary arms: ``"route"``, where the route that coherent ``reach``
+            plans puts the arm at the preview times; ``"peaks"``, each on one tracked peak (as ``single``); ``None``
+            (the default): ``"route"`` on an arm the planner covers (spatial, or planar with at most 4 joints),
+            ``"peaks"`` on other arms. ``"route"`` on an arm the planner does not cover is refused.
         hysteresis: ``reach`` in coherent mode: relative S bonus of the nodes that continue the last route.
         settle_frames: camera frames over which the pull is ramped in after a change of peak.
         track_radius: largest joint-space move [rad] of a peak between two frames to keep its identity.
@@ -160,7 +174,8 @@ class ControllerParams(Checked):
             planner beside the control loop: a plan made from the state at ``t`` is followed from
             ``t + plan_latency`` (the first one at once); at most the replan period. 0 (the default): within the
             cycle.
-        execution: how the command is executed, one of :data:`EXECUTION_MODES`.
+        execution: how the command is executed, one of :data:`EXECUTION_MODES` (``none`` and ``qp`` have their own,
+            :data:`FIXED_EXECUTION`).
         task_weight: ``W``, the QP's weight of the hand term against the joint term
             (:mod:`~previewctl.control.execution`).
         slack_weight: when the dampers are infeasible, the penalty on their slacks against the joint term in the
@@ -190,7 +205,7 @@ class ControllerParams(Checked):
     ga_options: tuple[tuple[Text, Any], ...] = field(default=())
     with_gradient: Flag = False
     coherent: Flag = True
-    imaginary_arms: ImaginaryArms = "route"
+    imaginary_arms: ImaginaryArms | None = None
     hysteresis: NonNegative = 0.2
     settle_frames: Count = 15
     track_radius: Positive = 0.5
@@ -233,6 +248,18 @@ class ControllerParams(Checked):
         """The ``k_i`` used by a preview mode: ``(1,)`` for ``single`` (eq. 20), ``weights`` otherwise."""
         return (1.0,) if mode == "single" else self.weights
 
+
+SETTING_GROUPS: dict[str, tuple[str, ...]] = {
+    "tracking": ("feedback_gain", "step_correction", "damping", "singular_threshold", "velocity_scale", "limit_gain",
+                 "limit_margin"),
+    "qp": ("task_weight", "slack_weight", "damper_gain", "influence_distance", "safety_distance"),
+    "preview": ("gain", "preview_time", "weights", "previews"),
+    "ga": ("population", "elite", "top_k", "ga_options"),
+    "peaks": ("track_radius", "settle_frames", "track_neighbours"),
+    "plan": ("replan_period", "plan_window", "plan_latency"),
+    "gradient": ("gradient_gain", "fd_step"),
+}
+"""The fields of :class:`ControllerParams` by what reads them (the controllers compose these parts)."""
 
 GA_SETTINGS = table("ga", GAOptions, exclude=("population", "elite", "top_k"))
 """The GA settings besides ``population``, ``elite`` and ``top_k``: ``ga_options``, ``[controller.ga]``."""

@@ -25,7 +25,7 @@ follows one peak per imaginary arm:
   distance projected on the self-motion manifold, which stalls between basins (measured on
   ``planar_free``: a switch to a peak twice as good across ``q2 = 0`` left the arm stuck at
   ``S ≈ 300``). Changing basin deliberately is the job of a planned route (``reach``, and coherent ``multi``
-  where the route is planned: :class:`~previewctl.control.reach.ReachController`), which checks the move;
+  where the route is planned: :mod:`previewctl.control.planner`), which checks the move;
 * after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
   camera frames, so the arm does not lunge at a target the search has not settled on.
 
@@ -41,9 +41,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from previewctl.robot.model import Robot
 from previewctl.search.genes import joint_distance
 from previewctl.search.redundancy import wrap_angle
 from previewctl.types import Array
+
+
+def near(robot: Robot, reference: Array | None, nodes: Array, radius: float) -> NDArray[np.bool_]:
+    """Which ``nodes`` ``(B, nq)`` lie within ``radius`` [rad] of ``reference`` ``(nq,)`` in joint space (full-turn
+    joints compared modulo 2π): the peaks that keep ``reference``'s identity. None without a reference."""
+    if reference is None or not len(nodes):
+        return np.zeros(len(nodes), dtype=bool)
+    angles = robot.angles_of(np.vstack([reference[None], nodes]))
+    distance = joint_distance(angles[1:], angles[:1], robot.joints.full_turn)[:, 0]
+    return np.asarray(distance <= radius)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Eq. 19 as built: damped resolved-rate tracking of the hand with a null-space input ``v``,
+"""Eq. 19 as a reference: damped resolved-rate tracking of the hand with a null-space input ``v``,
 
     q̇ = J#(ṙ_d + K_p (r_d − r)) + (I − J⁺J) v.
 
@@ -25,21 +25,13 @@ Details:
   exactly: the null-space term never moves the hand.
 * Task priority: the null-space term is first scaled by the largest ``α`` in [0, 1] for which
   ``q̇_task + α N v`` respects the speed limits (``α = 0`` if ``q̇_task`` alone does not), so the
-  avoidance motion never slows the hand down; ``α`` is reported as ``null_scale``.
-* Limits: every ``q̇_j`` must lie in the box ``[max((lo_j − q_j)/dt, −q̇max_j), min((hi_j − q_j)/dt,
-  q̇max_j)]`` (:func:`velocity_box`: ``q + q̇ dt`` stays within the position limits, ``|q̇_j|`` within
-  ``velocity_scale · q̇max_j``; a non-finite or non-positive URDF speed limit counts as no limit).
-  When the command above is inside the box it is applied unchanged. Otherwise the task is re-solved
-  by saturation in the null space (:mod:`previewctl.control.saturation`, Flacco et al. 2012): the
-  joint that leaves the box first is fixed at its bound and the task is solved again with the other
-  joints, repeatedly; if they cannot achieve it, the task velocity is scaled down along its direction
-  (``scale`` < 1). The null-space term is then projected on the free joints and scaled into the box.
-* Limit avoidance: ``v`` gets the term of :func:`limit_avoidance`, which pushes a joint away from a
-  position limit once it is within ``limit_margin`` of its range, before the box is ever reached.
-* For the preview modes the configuration error is taken in the tangent space,
-  ``v = K_v Σ_i k_i (q̃_i ⊖ q)`` (``pin.difference``), which equals eq. 21 for ordinary joints because
-  ``Σ k_i = 1``; for revolute joints whose range spans a full turn or more, each difference is
-  wrapped into ``(−π, π]`` (the same physical target, reached the short way).
+  avoidance motion never slows the hand down; ``α`` is the reference's ``budget``.
+* Limits: the reference is not yet limited; an execution (:mod:`previewctl.control.execution`) turns it into
+  the joint velocity applied, within the joint speed and position limits (:func:`velocity_box` gives the box of
+  one period: ``q + q̇ dt`` stays within the position limits, ``|q̇_j|`` within ``velocity_scale · q̇max_j``; a
+  non-finite or non-positive URDF speed limit counts as no limit).
+* Limit avoidance: ``v`` gets the term of :func:`~previewctl.control.nullspace.limit_avoidance`, which pushes
+  a joint away from a position limit once it is within ``limit_margin`` of its range, before the box is reached.
 """
 
 from __future__ import annotations
@@ -49,17 +41,14 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.base import ControlState, Reference
+from previewctl.control.nullspace import limit_avoidance
 from previewctl.control.params import ControllerParams
-from previewctl.control.saturation import saturate
-from previewctl.errors import ParameterError
 from previewctl.index.amsi import null_space_projector
 from previewctl.kinematics import hand_placement
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.types import Array
-
-# ------------------------------------------------------------------------------------ eq. 19
 
 STEP_ITERATIONS = 2
 """Corrections of eq. 19's step per cycle (Gauss-Newton on the predicted error). Measured on the Panda with
@@ -132,23 +121,6 @@ def velocity_box(robot: Robot, q: Array, dt: float, velocity_scale: float = 1.0)
     return np.minimum(np.maximum(low, -speed), 0.0), np.maximum(np.minimum(high, speed), 0.0)
 
 
-def limit_avoidance(robot: Robot, q: Array, params: ControllerParams) -> Array:
-    """Null-space input [rad/s] ``(nv,)`` that steers away from position limits before they are hit.
-
-    ``−K_l ∇H`` of ``H = ½ Σ_j max(0, ρ_j − d_j)²`` over both limits of each joint with finite limits,
-    ``d_j`` the distance to the limit [rad] and ``ρ_j = limit_margin · (hi_j − lo_j)``: zero unless a
-    joint is within ``ρ_j`` of a limit, then ``K_l`` [1/s] times how deep it is in that margin.
-    """
-    facts = robot.joints
-    position = np.asarray(q, dtype=float)[facts.q_index]
-    bounded = np.isfinite(facts.lower) & np.isfinite(facts.upper)
-    margin = np.where(bounded, params.limit_margin * (facts.upper - facts.lower), 0.0)
-    with np.errstate(invalid="ignore"):
-        push_up = np.where(bounded, np.maximum(0.0, margin - (position - facts.lower)), 0.0)
-        push_down = np.where(bounded, np.maximum(0.0, margin - (facts.upper - position)), 0.0)
-    return np.asarray(params.limit_gain * (push_up - push_down), dtype=float)
-
-
 def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> float:
     """Largest ``α`` in [0, 1] with ``|q̇_task,j + α q̇_null,j| <= limit_j`` for every joint (task priority).
 
@@ -185,9 +157,7 @@ def task_error(robot: Robot, path: HandPath, r_d: Array, tip: Array, rotation: A
     return (r_d - tip)[robot.task_rows]
 
 
-def step_correction(
-    robot: Robot, t: float, q: Array, state: ControlState, qdot: Array, error: Array, params: ControllerParams
-) -> Array:
+def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array, params: ControllerParams) -> Array:
     """What to add to eq. 19's task velocity [m/s, rad/s] so that ``qdot`` held for ``dt`` leaves the error the
     continuous law would: ``(e(t + dt) − exp(−K_p dt) e(t)) / dt``, with ``e(t + dt)`` predicted by forward
     kinematics at ``q ⊕ q̇ dt``.
@@ -198,38 +168,22 @@ def step_correction(
     """
     dt = state.dt
     data = state.data if state.data is not None else robot.model.createData()
-    tip, rotation = hand_placement(robot, pin.integrate(robot.model, q, qdot * dt), data)
-    r_d = task_target(robot, state.path, t + dt)[0]
+    tip, rotation = hand_placement(robot, pin.integrate(robot.model, state.q, qdot * dt), data)
+    r_d = task_target(robot, state.path, state.t + dt)[0]
     predicted = task_error(robot, state.path, r_d, tip, rotation)
     return np.asarray((predicted - math.exp(-params.feedback_gain * dt) * error) / dt, dtype=float)
 
 
-def track(
-    robot: Robot,
-    t: float,
-    q: Array,
-    state: ControlState,
-    v: Array,
-    params: ControllerParams,
-    targets: Array | None = None,
-    target_amsip: Array | None = None,
-) -> tuple[Array, ControlInfo]:
-    """Eq. 19 with feedback, damping and limits for a given null-space input ``v`` ``(nv,)``.
+def reference(robot: Robot, state: ControlState, v: Array, params: ControllerParams) -> Reference:
+    """Eq. 19 with feedback, damping, task priority and the step correction for a null-space input ``v``.
 
     Args:
         robot: the arm.
-        t: time [s].
-        q: configuration ``(nq,)``.
-        state: kinematics of ``q`` and the path.
-        v: null-space input [rad/s].
+        state: the configuration, its kinematics, the time and the path.
+        v: the law's null-space input [rad/s] ``(nv,)``; the joint-limit avoidance is added to it.
         params: gains, damping, limits.
-        targets: imaginary arms to report (preview modes).
-        target_amsip: their AMSIP values.
-
-    Returns:
-        ``(q̇, info)``.
     """
-    kin = state.kin
+    kin, t, q = state.kin, state.t, state.q
     J = kin.J_task[0]
     r_d, rdot_d = task_target(robot, state.path, t)
     tip = kin.tip_position[0]
@@ -241,62 +195,10 @@ def track(
     qdot_null = null_space_projector(J) @ v_total
     limits = effective_velocity_limits(robot, params.velocity_scale)
     qdot_task = J_sharp @ xdot
-    null_scale = null_space_budget(qdot_task, qdot_null, limits)
+    budget = null_space_budget(qdot_task, qdot_null, limits)
     for _ in range(STEP_ITERATIONS if params.step_correction else 0):
-        xdot = xdot + step_correction(robot, t, q, state, qdot_task + null_scale * qdot_null, error, params)
+        xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
         qdot_task = J_sharp @ xdot
-        null_scale = null_space_budget(qdot_task, qdot_null, limits)
-    requested = qdot_task + null_scale * qdot_null
-    low, high = velocity_box(robot, q, state.dt, params.velocity_scale)
-    qdot, scale, clamped = requested, 1.0, False
-    if not np.all((requested >= low) & (requested <= high)):
-        sat = saturate(J, xdot, v_total, low, high,
-                       lambda A: damped_pseudo_inverse(A, params.damping, params.singular_threshold)[0])
-        qdot, scale, null_scale, clamped = sat.qdot, sat.task_scale, sat.null_scale, bool(sat.saturated.any())
-    info = ControlInfo(
-        desired_position=r_d,
-        desired_velocity=rdot_d,
-        hand_position=tip,
-        task_error=error,
-        v=v_total,
-        qdot_task=qdot_task,
-        qdot_null=qdot_null,
-        qdot_requested=requested,
-        null_scale=null_scale,
-        scale=scale,
-        clamped=clamped,
-        damping=lam,
-        dt=state.dt,
-        frame_due=state.frame_due,
-        targets=targets,
-        target_amsip=target_amsip,
-    )
-    return qdot, info
-
-
-def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
-    """A gain (one number or one per joint velocity) as ``(nv,)`` [1/s]; ``where`` names it in messages.
-
-    Raises:
-        ParameterError: neither 1 nor ``nv`` entries.
-    """
-    if len(gain) == 1:
-        return np.full(nv, gain[0])
-    if len(gain) != nv:
-        raise ParameterError(f"{where} has {len(gain)} entries; give one number or {nv} (one per joint velocity)")
-    return np.array(gain)
-
-
-# ------------------------------------------------------------------------------- controllers
-
-
-class TrackingController:
-    """``none``: eq. 19 with ``v = 0`` (minimum-norm hand tracking); ``qp``: the same law, always executed by
-    the constrained QP (the controller built by :func:`~previewctl.control.factory.make_controller` sees to it)."""
-
-    def __init__(self, robot: Robot, params: ControllerParams | None = None, name: str = "none") -> None:
-        self.robot, self.params, self.name = robot, params or ControllerParams(), name
-
-    def command(self, t: float, q: Array, state: ControlState) -> tuple[Array, ControlInfo]:
-        """Joint velocity [rad/s] for time ``t`` [s]; see :func:`track`."""
-        return track(self.robot, t, q, state, np.zeros(self.robot.nv), self.params)
+        budget = null_space_budget(qdot_task, qdot_null, limits)
+    return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
+                     xdot=xdot, v=v_total, qdot_task=qdot_task, qdot_null=qdot_null, budget=budget, damping=lam)

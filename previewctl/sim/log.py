@@ -55,6 +55,8 @@ class RunResult:
             without previews; NaN where no command was computed, e.g. the colliding step).
         target_S: ``(T, p)`` their AMSIP values.
         execution: how the commands were executed: ``qp`` or ``pseudoinverse``.
+        composition: what the controller was made of: its law, imaginary-arm policy, planner, execution and the
+            settings it ignored (:class:`~previewctl.control.base.Composition`, as text).
         slack: ``(T,)`` the QP's largest collision-damper slack [m/s] (0 while every damper held).
     """
 
@@ -84,6 +86,7 @@ class RunResult:
     targets: Array
     target_S: Array  # noqa: N815 -- the paper's symbol S
     execution: str
+    composition: str
     slack: Array
 
     @property
@@ -115,7 +118,7 @@ class RunResult:
         ``failure``, ``tolerance`` [m], ``collided``, ``collision_time`` [s], ``collision_link``,
         ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
-        ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``max_slack`` [m/s].
+        ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``composition``, ``max_slack`` [m/s].
         """
         k, e = self.collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("hand error", e)) if index is not None]
@@ -147,6 +150,7 @@ class RunResult:
             "cycle_time_median": float(np.median(self.cycle_time)),
             "cycle_time_max": float(self.cycle_time.max()),
             "execution": self.execution,
+            "composition": self.composition,
             "max_slack": float(self.slack.max()) if self.steps else 0.0,
         }
 

@@ -98,7 +98,8 @@ def simulate(
         link_names=links,
         tolerance=verdict.tolerance,
         velocity_limits=effective_velocity_limits(robot, controller.params.velocity_scale),
-        execution="qp" if controller.execution is not None else "pseudoinverse",
+        execution=controller.execution.name,
+        composition=str(controller.describe()),
         **log.arrays(count),
     )
 
@@ -194,9 +195,10 @@ class _Log:
     def record_command(self, k: int, info: ControlInfo, qdot: Array) -> None:
         """Row ``k``: what the controller computed."""
         c = self.columns
-        self.record_hand(k, info.hand_position, info.desired_position)
-        c["qdot"][k], c["qdot_requested"][k] = qdot, info.qdot_requested
-        c["velocity_scale"][k], c["frame_due"][k], c["slack"][k] = info.scale, info.frame_due, info.slack
+        ref, executed = info.reference, info.executed
+        self.record_hand(k, ref.hand_position, ref.desired_position)
+        c["qdot"][k], c["qdot_requested"][k] = qdot, executed.requested
+        c["velocity_scale"][k], c["frame_due"][k], c["slack"][k] = executed.scale, info.frame_due, executed.slack
         if info.targets is not None and info.target_amsip is not None:
             if self.targets is None or self.target_S is None:
                 p = info.targets.shape[0]

@@ -42,7 +42,7 @@ from previewctl.control.params import (
     EXECUTION_MODES,
     PAPER_WEIGHTS,
     ControllerSpec,
-    distinct_run,
+    controller_runs,
 )
 from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_folder, atomic_write_bytes, check_output_folder
@@ -66,15 +66,13 @@ PINV_SUFFIX = "-pinv"
 def paper_runs(controllers: Sequence[str], executions: Sequence[str] = EXECUTION_MODES) -> dict[str, tuple[str, str]]:
     """The runs of ``controllers`` × ``executions`` as ``{label: (controller, execution)}``, in order.
 
-    Each distinct run appears once (:func:`~previewctl.control.params.distinct_run`): ``none`` under the QP is
-    labelled ``qp``, and ``qp`` under the pseudo-inverse ``none-pinv``.
+    ``none`` runs under the pseudo-inverse only and ``qp`` under the QP only
+    (:func:`~previewctl.control.params.controller_runs`).
     """
     runs: dict[str, tuple[str, str]] = {}
     for execution in executions:
-        for name in controllers:
-            controller, _ = distinct_run(name, execution)
-            label = controller if execution == "qp" else controller + PINV_SUFFIX
-            runs.setdefault(label, (controller, execution))
+        for controller, _ in controller_runs(controllers, [execution]):
+            runs[controller if execution == "qp" else controller + PINV_SUFFIX] = (controller, execution)
     return runs
 
 

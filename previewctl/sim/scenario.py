@@ -59,8 +59,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from previewctl.control.nullspace import gain_vector
 from previewctl.control.params import ControllerParams, ControllerSpec
-from previewctl.control.tracking import gain_vector
 from previewctl.errors import PreviewctlError, ScenarioError, UnreachableTargetError
 from previewctl.index.amsi import IndexParams
 from previewctl.index.evaluator import Evaluator

@@ -1,0 +1,103 @@
+"""Null-space inputs ``v`` of eq. 19: the preview pull of eqs. 20-21, the AMSIP gradient and limit avoidance.
+
+* The preview pull (eq. 21, eq. 20 with one target) is taken in the tangent space,
+  ``v = K_v Σ_i k_i (q̃_i ⊖ q)`` (``pin.difference``), which equals eq. 21 for ordinary joints because
+  ``Σ k_i = 1``; for revolute joints whose range spans a full turn or more, each difference is wrapped into
+  ``[−π, π)`` (the same physical target, reached the short way).
+* The AMSIP gradient ``v = K_g ∇_q S`` (:class:`AmsipGradient`) is a local null-space ascent of eq. 18.
+* Limit avoidance (:func:`limit_avoidance`) is added to every law's input by the tracking reference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from previewctl.control.params import ControllerParams
+from previewctl.errors import ParameterError
+from previewctl.index.evaluator import Evaluator
+from previewctl.robot.joints import FULL_TURN
+from previewctl.robot.model import Robot
+from previewctl.types import Array
+
+
+def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
+    """A gain (one number or one per joint velocity) as ``(nv,)`` [1/s]; ``where`` names it in messages.
+
+    Raises:
+        ParameterError: neither 1 nor ``nv`` entries.
+    """
+    if len(gain) == 1:
+        return np.full(nv, gain[0])
+    if len(gain) != nv:
+        raise ParameterError(f"{where} has {len(gain)} entries; give one number or {nv} (one per joint velocity)")
+    return np.array(gain)
+
+
+def limit_avoidance(robot: Robot, q: Array, params: ControllerParams) -> Array:
+    """Null-space input [rad/s] ``(nv,)`` that steers away from position limits before they are hit.
+
+    ``−K_l ∇H`` of ``H = ½ Σ_j max(0, ρ_j − d_j)²`` over both limits of each joint with finite limits,
+    ``d_j`` the distance to the limit [rad] and ``ρ_j = limit_margin · (hi_j − lo_j)``: zero unless a
+    joint is within ``ρ_j`` of a limit, then ``K_l`` [1/s] times how deep it is in that margin.
+    """
+    facts = robot.joints
+    position = np.asarray(q, dtype=float)[facts.q_index]
+    bounded = np.isfinite(facts.lower) & np.isfinite(facts.upper)
+    margin = np.where(bounded, params.limit_margin * (facts.upper - facts.lower), 0.0)
+    with np.errstate(invalid="ignore"):
+        push_up = np.where(bounded, np.maximum(0.0, margin - (position - facts.lower)), 0.0)
+        push_down = np.where(bounded, np.maximum(0.0, margin - (facts.upper - position)), 0.0)
+    return np.asarray(params.limit_gain * (push_up - push_down), dtype=float)
+
+
+def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int, ...] = ()) -> Array:
+    """``target ⊖ q`` ``(nv,)`` [rad or m], the full-turn angles wrapped into [−π, π), except the
+    velocity indices in ``keep`` (their plain difference is kept).
+
+    Continuous joints need no wrapping: ``pin.difference`` already returns their angle.
+    """
+    diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
+    wrap = robot.joints.full_turn & ~robot.joints.continuous
+    wrap[list(keep)] = False
+    return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
+
+
+def preview_pull(robot: Robot, q: Array, targets: Array, weights: Array, *, keep: tuple[int, ...] = ()) -> Array:
+    """``Σ_i k_i (q̃_i ⊖ q)`` ``(nv,)`` [rad]: the blend of eq. 21 (eq. 20 with one target), each difference as
+    :func:`wrapped_difference` takes it (``keep`` every index: plain differences, for targets unwrapped along a
+    plan)."""
+    pull = np.zeros(robot.nv)
+    for k, target in zip(weights, targets, strict=True):
+        pull += k * wrapped_difference(robot, q, target, keep=keep)
+    return pull
+
+
+class AmsipGradient:
+    """``v = K_g ∇_q S``: the local null-space ascent of the AMSIP (eq. 18).
+
+    ``∇S`` is taken in the tangent space by central differences,
+    ``∂S/∂q_j ≈ (S(q ⊕ h e_j) − S(q ⊖ h e_j)) / 2h``, all ``2 nv`` configurations evaluated in one batch
+    with the scene at time ``t``.
+
+    Args:
+        robot: the arm.
+        evaluator: the AMSIP evaluator of the scene.
+        params: ``gradient_gain`` (``K_g``) and ``fd_step`` (``h`` [rad]).
+    """
+
+    def __init__(self, robot: Robot, evaluator: Evaluator, params: ControllerParams) -> None:
+        self.robot, self.evaluator, self.step = robot, evaluator, params.fd_step
+        self._gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
+
+    def gradient(self, q: Array, t: float) -> Array:
+        """``∇_q S`` at ``q`` ``(nq,)`` and time ``t`` [s], shape ``(nv,)`` [1/rad]."""
+        h, nv, model = self.step, self.robot.nv, self.robot.model
+        steps = np.concatenate([np.eye(nv), -np.eye(nv)]) * h
+        batch = np.stack([pin.integrate(model, q, d) for d in steps])
+        S = self.evaluator(batch, t).S
+        return np.asarray((S[:nv] - S[nv:]) / (2.0 * h))
+
+    def __call__(self, q: Array, t: float) -> Array:
+        """``v = K_g ∇_q S`` ``(nv,)`` [rad/s] at ``q`` ``(nq,)`` and time ``t`` [s]."""
+        return np.asarray(self._gain * self.gradient(q, t))
