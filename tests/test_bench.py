@@ -135,6 +135,19 @@ def test_generator_errors_name_the_bad_value() -> None:
         SceneSettings(witness_tolerance=0)
 
 
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"dt": "x"}, r"^dt must be a finite number, got 'x'; valid: numbers > 0$"),
+    ({"duration": float("inf")}, r"^duration must be finite, got inf$"),
+    ({"duration": -1.0}, r"^duration must be > 0, got -1\.0$"),
+    ({"max_draws": 0}, r"^max_draws must be >= 1, got 0$"),
+    ({"witness_samples": 2.0}, r"^witness_samples must be an integer, got 2\.0; valid: integers >= 1$"),
+    ({"witness_follow": "yes"}, r"^witness_follow must be true or false, got 'yes'$"),
+])
+def test_scene_settings_name_the_bad_value(kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(ParameterError, match=message):
+        SceneSettings(**kwargs)  # type: ignore[arg-type]
+
+
 # ------------------------------------------------------------------------------- sweep, resume
 
 
