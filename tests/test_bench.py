@@ -136,6 +136,19 @@ def test_generator_errors_name_the_bad_value() -> None:
         SceneSettings(witness_tolerance=0)
 
 
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"dt": "x"}, r"^dt must be a finite number, got 'x'; valid: numbers > 0$"),
+    ({"duration": float("inf")}, r"^duration must be finite, got inf$"),
+    ({"duration": -1.0}, r"^duration must be > 0, got -1\.0$"),
+    ({"max_draws": 0}, r"^max_draws must be >= 1, got 0$"),
+    ({"witness_samples": 2.0}, r"^witness_samples must be an integer, got 2\.0; valid: integers >= 1$"),
+    ({"witness_follow": "yes"}, r"^witness_follow must be true or false, got 'yes'$"),
+])
+def test_scene_settings_name_the_bad_value(kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(ParameterError, match=message):
+        SceneSettings(**kwargs)  # type: ignore[arg-type]
+
+
 # ------------------------------------------------------------------------------- sweep, resume
 
 
@@ -189,6 +202,29 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert len(read_records(out / "scenes.jsonl")) == 2  # the resume reused the stored scenes
 
 
+@pytest.mark.parametrize(("kwargs", "error", "message"), [
+    ({"scenes": 0}, ParameterError, r"^scenes must be >= 1, got 0$"),
+    ({"scenes": 2.5}, ParameterError, r"^scenes must be an integer, got 2\.5; valid: integers >= 1$"),
+    ({"seeds": True}, ParameterError, r"^seeds must be an integer, got True; valid: integers >= 1$"),
+    ({"scene_seed": -1}, ParameterError, r"^scene_seed must be >= 0, got -1$"),
+    ({"scene_seed": 1.5}, ParameterError, r"^scene_seed must be an integer, got 1\.5; valid: integers >= 0$"),
+    ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7$"),
+    ({"robots": "planar4"}, ParameterError, r"^robots must be a list of strings, got 'planar4'$"),
+    ({"robots": ("pandas",)}, UnknownNameError, r"unknown robot 'pandas'; valid: planar4, panda, xarm7"),
+    ({"controllers": ("multi", "fancy")}, UnknownNameError, r"unknown controller 'fancy'; valid: none, qp, "),
+    ({"executions": ("lp",)}, UnknownNameError, r"unknown execution mode 'lp'; valid: qp, pseudoinverse"),
+    ({"settings": {"dt": 0.01}}, ParameterError, r"^settings: .*instance of SceneSettings, got \{'dt': 0\.01\}$"),
+])
+def test_sweep_names_the_bad_value(kwargs: dict[str, object], error: type[Exception], message: str) -> None:
+    with pytest.raises(error, match=message):
+        Sweep(**kwargs)  # type: ignore[arg-type]
+
+
+def test_sweep_keeps_its_settings_and_takes_lists() -> None:
+    sweep = Sweep(robots=["planar4", "panda"], settings=SHORT)  # type: ignore[arg-type]
+    assert sweep.robots == ("planar4", "panda") and sweep.settings is SHORT
+
+
 def test_the_matrix_holds_each_distinct_run_once() -> None:
     sweep = Sweep(robots=("planar4", "panda"), scenes=2, controllers=("none", "qp", "multi", "oracle"))
     runs = [(s.robot, s.scene, s.controller, s.execution) for s in sweep.runs()]
@@ -236,7 +272,9 @@ def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> 
 
 @pytest.mark.parametrize(("argv", "message"), [
     (["--robot", "pandas"], "unknown robot 'pandas'; valid: planar4, panda, xarm7"),
-    (["--scenes", "0"], "scenes must be an integer >= 1, got 0"),
+    (["--scenes", "0"], "scenes must be >= 1, got 0"),
+    (["--seeds", "0"], "seeds must be >= 1, got 0"),
+    (["--scene-seed", "-2"], "scene_seed must be >= 0, got -2"),
     (["--controllers", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
     (["--executions", "lp"], "unknown execution mode 'lp'; valid: "),
 ])

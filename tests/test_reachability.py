@@ -519,13 +519,29 @@ def test_spatial_robot_gets_the_typed_error(panda: Robot) -> None:
         reach_over_time(panda, Evaluator(panda), path, panda.neutral(), 2.0)
 
 
-def test_options_name_the_bad_value() -> None:
-    with pytest.raises(ConfigurationError, match=r"resolution_deg must lie in \(0, 90\].*got 0"):
-        ReachOptions(resolution_deg=0)
-    with pytest.raises(ConfigurationError, match=r"steps must be an integer >= 1, got 2\.5"):
-        ReachOptions(steps=2.5)  # type: ignore[arg-type]
-    with pytest.raises(ConfigurationError, match=r"velocity_scale must lie in \(0, 1\], got 1.5"):
-        ReachOptions(velocity_scale=1.5)
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("resolution_deg", 0, r"^resolution_deg must lie in \(0, 90\], got 0\.0$"),
+    ("resolution_deg", True, r"^resolution_deg must be a finite number, got True; valid: numbers in \(0, 90\]$"),
+    ("steps", 2.5, r"^steps must be an integer, got 2\.5; valid: integers >= 1$"),
+    ("steps", 0, r"^steps must be >= 1, got 0$"),
+    ("max_step_cells", "3", r"^max_step_cells must be an integer, got '3'; valid: integers >= 1$"),
+    ("s_min", float("nan"), r"^s_min must be finite, got nan$"),
+    ("s_min", -1.0, r"^s_min must be >= 0, got -1\.0$"),
+    ("velocity_scale", 1.5, r"^velocity_scale must lie in \(0, 1\], got 1\.5$"),
+    ("obstacle_substeps", True, r"^obstacle_substeps must be an integer, got True; valid: integers >= 1$"),
+    ("cross_adjacency_deg", 200, r"^cross_adjacency_deg must lie in \[0, 180\], got 200\.0$"),
+    ("map_times", -1, r"^map_times must be >= 0, got -1$"),
+    ("start_families", 1, r"^start_families must be true or false, got 1$"),
+])
+def test_options_name_the_bad_value(field: str, value: object, message: str) -> None:
+    with pytest.raises(ConfigurationError, match=message):
+        ReachOptions(**{field: value})  # type: ignore[arg-type]
+
+
+def test_options_take_integers_for_numbers() -> None:
+    options = ReachOptions(resolution_deg=4, s_min=1, map_times=0)
+    assert options.resolution_deg == 4.0 and isinstance(options.resolution_deg, float)
+    assert options.s_min == 1.0 and isinstance(options.s_min, float) and options.map_times == 0
 
 
 def test_time_step_too_short_for_the_grid(planar4: Robot) -> None:

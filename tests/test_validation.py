@@ -18,6 +18,7 @@ from previewctl.validation import (
     Count,
     Finite,
     Flag,
+    Integer,
     Positive,
     Section,
     Size,
@@ -81,16 +82,17 @@ def message(data: dict[str, Any]) -> str:
         ({"gear": {}, "nmae": "x"}, "unknown key 'nmae' (did you mean 'name'?); valid keys of the machine: name, gear"),
         ({}, "missing section [gear] (the gear box)"),
         ({"gear": 3}, "gear must be a table, got 3"),
-        ({"gear": {"ratio": "0.3"}}, "gear.ratio must be a finite number, got '0.3'"),
+        ({"gear": {"ratio": "0.3"}}, "gear.ratio must be a finite number, got '0.3'; valid: numbers in (0, 1]"),
         ({"gear": {"ratio": True}}, "gear.ratio must be a finite number, got True"),
         ({"gear": {"ratio": float("inf")}}, "gear.ratio must be finite, got inf"),
         ({"gear": {"ratio": 0}}, "gear.ratio must lie in (0, 1], got 0.0"),
-        ({"gear": {"teeth": 2.0}}, "gear.teeth must be an integer, got 2.0"),
+        ({"gear": {"teeth": 2.0}}, "gear.teeth must be an integer, got 2.0; valid: integers >= 1"),
         ({"gear": {"teeth": 0}}, "gear.teeth must be >= 1, got 0"),
         ({"gear": {"axis": [1]}}, "gear.axis must have 2 or 3 entries, got 1: [1]"),
         ({"gear": {"axis": "z"}}, "gear.axis must be a list of 2 or 3 numbers, got 'z'"),
         ({"gear": {"axis": [0, "1"]}}, "gear.axis[1] must be a finite number, got '1'"),
         ({"gear": {"oiled": "yes"}}, "gear.oiled must be true or false, got 'yes'"),
+        ({"gear": {"motor": 3}}, "gear.motor must be a string, got 3"),
         ({"gear": {}, "mode": "fsat"}, "mode = 'fsat' is not valid; valid: fast, slow, off (did you mean 'fast'?)"),
         ({"gear": {}, "parts": [{"kind": "wheal", "radius": 1}]},
          "parts[0].kind = 'wheal' is not valid; valid: wheel, crank (did you mean 'wheel'?)"),
@@ -105,6 +107,27 @@ def message(data: dict[str, Any]) -> str:
 )
 def test_messages_name_the_key_the_value_and_the_choices(data: dict[str, Any], expected: str) -> None:
     assert expected in message(data)
+
+
+@pytest.mark.parametrize(
+    ("kind", "value", "expected"),
+    [
+        (Count, 2.5, "the value must be an integer, got 2.5; valid: integers >= 1"),
+        (Positive, "1", "the value must be a finite number, got '1'; valid: numbers > 0"),
+        (Annotated[Finite, Field(lt=0)], None, "the value must be a finite number, got None; valid: numbers < 0"),
+        (Annotated[Integer, Field(ge=4, le=100)], "8", "the value must be an integer, got '8'; valid: integers in "
+                                                       "[4, 100]"),
+        (Annotated[Finite, interval(0, 90, "(]")], "x", "the value must be a finite number, got 'x'; valid: numbers "
+                                                        "in (0, 90]"),
+        (Count | None, 1.5, "the value must be an integer, got 1.5; valid: integers >= 1"),
+        (Finite, "x", "the value must be a finite number, got 'x'"),  # no bound, nothing to add
+        (Flag, 1, "the value must be true or false, got 1"),
+    ],
+)
+def test_a_value_of_the_wrong_type_is_told_the_bounds_too(kind: Any, value: object, expected: str) -> None:
+    with pytest.raises(ParameterError) as info:
+        validate(kind, value, ParameterError)
+    assert str(info.value) == expected
 
 
 def test_a_misspelt_key_is_not_also_reported_missing() -> None:

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from previewctl.errors import ParameterError
+from previewctl.validation import Checked, Count, Flag, Positive
 
 
 @dataclass(frozen=True)
-class SceneSettings:
-    """What every scene of a sweep shares.
+class SceneSettings(Checked):
+    """What every scene of a sweep shares; every field is checked when made (a bad one raises
+    :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
         duration: run length [s] (``None``: the profile's).
@@ -26,27 +27,21 @@ class SceneSettings:
         witness_tolerance: the largest hand error [m] of that run.
     """
 
-    duration: float | None = None
-    dt: float = 0.01
-    max_draws: int = 30
-    witness_resolution_deg: float = 4.0
-    witness_period: float = 0.25
-    witness_samples: int = 256
-    witness_follow: bool = True
-    witness_tolerance: float = 1e-3
+    duration: Positive | None = None
+    dt: Positive = 0.01
+    max_draws: Count = 30
+    witness_resolution_deg: Positive = 4.0
+    witness_period: Positive = 0.25
+    witness_samples: Count = 256
+    witness_follow: Flag = True
+    witness_tolerance: Positive = 1e-3
 
-    def __post_init__(self) -> None:
-        """Check the values.
+    def check(self) -> None:
+        """A run of at least two control periods (each field is checked by its annotation first).
 
         Raises:
-            ParameterError: a non-positive duration, period or step, or fewer than one draw or sample.
+            ParameterError: a duration shorter than ``2 dt``.
         """
-        for name in ("dt", "witness_resolution_deg", "witness_period", "witness_tolerance"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        if self.duration is not None and not (math.isfinite(self.duration) and self.duration >= 2 * self.dt):
+        if self.duration is not None and self.duration < 2 * self.dt:
             raise ParameterError(f"duration must be at least two control periods ({2 * self.dt:g} s), "
                                  f"got {self.duration!r}")
-        for name in ("max_draws", "witness_samples"):
-            if getattr(self, name) < 1:
-                raise ParameterError(f"{name} must be >= 1, got {getattr(self, name)!r}")

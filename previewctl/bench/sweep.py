@@ -15,7 +15,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import Field, InstanceOf
 
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
 from previewctl.bench.results import append_record, read_records
@@ -24,6 +26,7 @@ from previewctl.bench.scenes import PROFILES, BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
+from previewctl.validation import Checked, Count, Integer, Text
 from previewctl.viz.replay import REPLAY_NAME
 
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 1 << 28, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
@@ -37,8 +40,9 @@ SCENES_NAME = "scenes.jsonl"
 
 
 @dataclass(frozen=True)
-class Sweep:
-    """What to run: robots x scenes x controller seeds x controllers x execution modes.
+class Sweep(Checked):
+    """What to run: robots x scenes x controller seeds x controllers x execution modes; every field is checked
+    when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
         robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
@@ -52,20 +56,20 @@ class Sweep:
         settings: what every scene shares (duration, dt, witness).
     """
 
-    robots: tuple[str, ...] = ("planar4",)
-    scenes: int = 10
-    controllers: tuple[str, ...] = ()
-    executions: tuple[str, ...] = ()
-    seeds: int = 1
-    scene_seed: int = 0
-    settings: SceneSettings = field(default_factory=SceneSettings)
+    robots: tuple[Text, ...] = ("planar4",)
+    scenes: Count = 10
+    controllers: tuple[Text, ...] = ()
+    executions: tuple[Text, ...] = ()
+    seeds: Count = 1
+    scene_seed: Annotated[Integer, Field(ge=0)] = 0
+    settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
 
-    def __post_init__(self) -> None:
-        """Check every name and count.
+    def check(self) -> None:
+        """Every name (each field's type and count is checked by its annotation first).
 
         Raises:
             UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
-            ParameterError: fewer than one scene or seed, no robot, a negative scene seed.
+            ParameterError: no robot.
         """
         if not self.robots:
             raise ParameterError(f"give at least one robot; valid: {', '.join(PROFILES)}")
@@ -78,12 +82,6 @@ class Sweep:
         for name in self.executions:
             if name not in control_params.EXECUTION_MODES:
                 raise UnknownNameError("execution mode", name, control_params.EXECUTION_MODES)
-        for name in ("scenes", "seeds"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
-        if self.scene_seed < 0:
-            raise ParameterError(f"scene seed must be >= 0, got {self.scene_seed!r}")
 
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).

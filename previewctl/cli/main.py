@@ -5,13 +5,38 @@ Bad input -> one line on stderr, exit 2."""
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import sys
 from collections.abc import Sequence
+from typing import Any, NoReturn
 
 from previewctl.cli import bench, index, paper, reach_map, robots, run, view
 from previewctl.cli import map as map_command
 from previewctl.cli.common import EXIT_USAGE, ArgumentParser
 from previewctl.errors import PreviewctlError
+
+EXIT_NO_VERSION = 1
+"""Exit code of ``previewctl --version`` when previewctl is not installed as a distribution."""
+
+
+class VersionAction(argparse.Action):
+    """``--version``: print ``previewctl <version>`` (the installed distribution's) and exit 0.
+
+    The version is looked up only when asked for. Without an installed distribution (the source tree on
+    ``PYTHONPATH``) there is none to report: one line on stderr says so, exit 1."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> NoReturn:
+        try:
+            version = importlib.metadata.version("previewctl")
+        except importlib.metadata.PackageNotFoundError:
+            parser.exit(EXIT_NO_VERSION, "previewctl: version unknown: previewctl is not installed as a distribution "
+                        "(install it with 'pip install -e .' from the source tree)\n")
+        sys.stdout.write(f"previewctl {version}\n")
+        parser.exit(0)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="On-line trajectory tracking with obstacle avoidance for redundant arms "
         "(avoidance manipulability, 1-step GA, multi-preview control).",
     )
+    parser.add_argument("--version", action=VersionAction, help="print the installed version and exit")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
     for command in (robots, index, run, paper, map_command, reach_map, view, bench):
         command.add_parser(commands)

@@ -47,9 +47,9 @@ def add_parser(sub: Any) -> None:
                         help=f"gene grid step [deg] (default {defaults.resolution_deg:g})")
     parser.add_argument("--steps", type=int, default=None,
                         help=f"time steps over the scenario's duration (default: at least {defaults.steps}, and as "
-                        f"many more as let a gene move at {ORACLE_GENE_SPEED:.0%} of its joint speed limit, with the "
-                        "grid coarsened (2x, 4x, ...) where that many steps would not fit the memory budget: the "
-                        "oracle's model)")
+                        f"many more as let a gene move at {100 * ORACLE_GENE_SPEED:.0f}%% of its joint speed limit, "
+                        "with the grid coarsened (2x, 4x, ...) where that many steps would not fit the memory budget: "
+                        "the oracle's model)")
     parser.add_argument("--max-step-cells", type=int, default=defaults.max_step_cells,
                         help="most grid cells a gene may move per step; the gene speed bound is this x resolution / "
                         f"step, or the joint limit if lower (default {defaults.max_step_cells})")

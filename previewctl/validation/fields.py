@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import AfterValidator, Field, Strict
+from pydantic import Field, Strict
 from pydantic_core import PydanticCustomError, core_schema
 
 from previewctl.validation.arrays import show
@@ -42,18 +42,35 @@ def invalid(message: str, **context: Any) -> PydanticCustomError:
     return PydanticCustomError(CUSTOM, message, context)
 
 
-def interval(low: float, high: float, ends: Literal["()", "(]", "[)", "[]"] = "[]") -> AfterValidator:
-    """A two-sided bound, e.g. ``Annotated[Finite, interval(0, 1, "(]")]`` for ``0 < x <= 1``."""
-    text = f"{ends[0]}{low:g}, {high:g}{ends[1]}"
+@dataclasses.dataclass(frozen=True)
+class Interval:
+    """A two-sided bound on a number, checked after its type (made by :func:`interval`); its :attr:`text`
+    also completes the message of a value of the wrong type."""
 
-    def check(value: float) -> float:
-        above = low <= value if ends[0] == "[" else low < value
-        below = value <= high if ends[1] == "]" else value < high
+    low: float
+    high: float
+    ends: Literal["()", "(]", "[)", "[]"] = "[]"
+
+    @property
+    def text(self) -> str:
+        """``"(0, 1]"``."""
+        return f"{self.ends[0]}{self.low:g}, {self.high:g}{self.ends[1]}"
+
+    def check(self, value: float) -> float:
+        """``value``, or the error that says where it must lie."""
+        above = self.low <= value if self.ends[0] == "[" else self.low < value
+        below = value <= self.high if self.ends[1] == "]" else value < self.high
         if not (above and below):
-            raise invalid("must lie in {interval}, got {value}", interval=text, value=show(value))
+            raise invalid("must lie in {interval}, got {value}", interval=self.text, value=show(value))
         return value
 
-    return AfterValidator(check)
+    def __get_pydantic_core_schema__(self, source: Any, handler: Callable[[Any], Any]) -> Any:
+        return core_schema.no_info_after_validator_function(self.check, handler(source))
+
+
+def interval(low: float, high: float, ends: Literal["()", "(]", "[)", "[]"] = "[]") -> Interval:
+    """A two-sided bound, e.g. ``Annotated[Finite, interval(0, 1, "(]")]`` for ``0 < x <= 1``."""
+    return Interval(low, high, ends)
 
 
 Probability = Annotated[Finite, interval(0, 1)]

@@ -2,7 +2,8 @@
 
 The ``loc`` of each pydantic error is walked through the schema that was validated, to find the
 dotted key (``obstacles[1].motion.velocity``: list indices in brackets, union tags left out), the
-expected type (told in words: "a list of 3 numbers"), the valid keys of the table that holds it and
+expected type (told in words: "a list of 3 numbers"; a value of the wrong type for a bounded number is told the
+bounds too: "steps must be an integer, got 2.5; valid: integers >= 1"), the valid keys of the table that holds it and
 the valid choices of a ``Literal`` or a tagged union, with :mod:`difflib`'s nearest for a near miss.
 """
 
@@ -14,11 +15,12 @@ import types
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
+import annotated_types
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
 from previewctl.validation.arrays import show
-from previewctl.validation.fields import CUSTOM, Size
+from previewctl.validation.fields import CUSTOM, Interval, Size
 
 
 @dataclasses.dataclass
@@ -119,6 +121,26 @@ def _noun(kind: Any, plural: bool = False) -> str:
     return words[plural]
 
 
+def _bounds(kind: Any) -> str:
+    """The bounds of a number type in words (``">= 1"``, ``"in (0, 90]"``, ``"in [4, 10000]"``), or ``""``."""
+    base, metadata, _ = _unwrap(kind)
+    if base not in (int, float):
+        return ""
+    flat = [m for item in metadata for m in (item.metadata if isinstance(item, FieldInfo) else [item])]
+    low = next((f"[{m.ge:g}" if isinstance(m, annotated_types.Ge) else f"({m.gt:g}"
+                for m in flat if isinstance(m, (annotated_types.Ge, annotated_types.Gt))), "")
+    high = next((f"{m.le:g}]" if isinstance(m, annotated_types.Le) else f"{m.lt:g})"
+                 for m in flat if isinstance(m, (annotated_types.Le, annotated_types.Lt))), "")
+    words = [f"in {m.text}" for m in flat if isinstance(m, Interval)]
+    if low and high:
+        words.insert(0, f"in {low}, {high}")
+    elif low:
+        words.insert(0, (">= " if low[0] == "[" else "> ") + low[1:])
+    elif high:
+        words.insert(0, ("<= " if high[-1] == "]" else "< ") + high[:-1])
+    return " and ".join(words)
+
+
 _WORDS = {float: ("a finite number", "numbers"), int: ("an integer", "integers"), bool: ("true or false", "booleans"),
           str: ("a string", "strings")}
 
@@ -151,7 +173,9 @@ def _message(error: Any, root: Any, where: str, root_name: str) -> str:
     key = spot.key or root_name
     got = f", got {show(value)}"
     if spot.union or kind in _TYPE_ERRORS:
-        return f"{key} must be {_noun(spot.kind)}{got}"
+        bounds = "" if spot.union else _bounds(spot.kind)
+        expected = f"; valid: {_noun(spot.kind, plural=True)} {bounds}" if bounds else ""
+        return f"{key} must be {_noun(spot.kind)}{got}{expected}"
     if kind == CUSTOM:
         return f"{key} {error['msg']}"
     if kind == "literal_error":

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import Annotated
+
+from pydantic import Field
 
 from previewctl.errors import ConfigurationError
+from previewctl.validation import Checked, Count, Finite, Flag, Integer, NonNegative, interval
 
 
 class PlanarOnlyError(ConfigurationError):
@@ -13,8 +16,9 @@ class PlanarOnlyError(ConfigurationError):
 
 
 @dataclass(frozen=True)
-class ReachOptions:
-    """Grid, time step and transition model of :func:`~previewctl.search.reachability.reach_over_time`.
+class ReachOptions(Checked):
+    """Grid, time step and transition model of :func:`~previewctl.search.reachability.reach_over_time`; every
+    field is checked when made (a bad one raises :class:`~previewctl.errors.ConfigurationError` naming it).
 
     Attributes:
         resolution_deg: gene grid step ``h`` [deg]: a gene with finite limits gets ``floor(range / h) + 1``
@@ -33,36 +37,14 @@ class ReachOptions:
             ``q0`` otherwise avoids (it evaluates only the cells one step away from the reachable set).
     """
 
-    resolution_deg: float = 2.0
-    steps: int = 50
-    max_step_cells: int = 3
-    s_min: float = 0.0
-    velocity_scale: float = 1.0
-    obstacle_substeps: int = 8
-    cross_adjacency_deg: float = 10.0
-    map_times: int = 10
-    start_families: bool = False
+    error = ConfigurationError
 
-    def __post_init__(self) -> None:
-        """Validate every field.
-
-        Raises:
-            ConfigurationError: a bad value (the message names the field and the value).
-        """
-        if not (isinstance(self.resolution_deg, (int, float)) and math.isfinite(self.resolution_deg)
-                and 0 < self.resolution_deg <= 90):
-            raise ConfigurationError(f"resolution_deg must lie in (0, 90] [deg], got {self.resolution_deg!r}")
-        for name, low in (("steps", 1), ("max_step_cells", 1), ("obstacle_substeps", 1), ("map_times", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
-        if not (isinstance(self.s_min, (int, float)) and math.isfinite(self.s_min) and self.s_min >= 0):
-            raise ConfigurationError(f"s_min must be a finite number >= 0, got {self.s_min!r}")
-        if not (isinstance(self.velocity_scale, (int, float)) and math.isfinite(self.velocity_scale)
-                and 0 < self.velocity_scale <= 1):
-            raise ConfigurationError(f"velocity_scale must lie in (0, 1], got {self.velocity_scale!r}")
-        if not (isinstance(self.cross_adjacency_deg, (int, float)) and 0 <= self.cross_adjacency_deg <= 180):
-            raise ConfigurationError(
-                f"cross_adjacency_deg must lie in [0, 180] [deg], got {self.cross_adjacency_deg!r}")
-        if not isinstance(self.start_families, bool):
-            raise ConfigurationError(f"start_families must be true or false, got {self.start_families!r}")
+    resolution_deg: Annotated[Finite, interval(0, 90, "(]")] = 2.0
+    steps: Count = 50
+    max_step_cells: Count = 3
+    s_min: NonNegative = 0.0
+    velocity_scale: Annotated[Finite, interval(0, 1, "(]")] = 1.0
+    obstacle_substeps: Count = 8
+    cross_adjacency_deg: Annotated[Finite, interval(0, 180)] = 10.0
+    map_times: Annotated[Integer, Field(ge=0)] = 10
+    start_families: Flag = False
