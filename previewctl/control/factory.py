@@ -185,6 +185,9 @@ def make_controller(
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
     parts = compose(spec, robot, scene, evaluator, rng, search_factory=search_factory)
+    if parts.composition.ignored:
+        warnings.warn(f"controller {spec.name!r} does not use {'; '.join(parts.composition.ignored)}: ignored",
+                      IgnoredSettingWarning, stacklevel=2)
     return Controller(parts.law, parts.execution, robot, path, spec.params, parts.composition,
                       frame=base.frame if frame is None else frame, dt=base.dt if dt is None else dt)
 
@@ -262,8 +265,8 @@ def compose(
     Raises:
         ParameterError: ``imaginary_arms = "route"`` for ``multi`` on an arm the window planner does not cover.
 
-    Warns:
-        IgnoredSettingWarning: settings the controller does not read (also in the composition's ``ignored``).
+    A setting the controller does not read is recorded in the composition's ``ignored``
+    (:func:`make_controller` warns about it).
     """
     name, params = spec.name, spec.params
     execution_name = execution_of(name, params)
@@ -293,7 +296,7 @@ def compose(
     else:
         law, policy, planner = _preview(spec, robot, evaluator, rng, search_factory)
         read |= _preview_reads(name, params, policy, planner)
-    ignored = _ignored(name, params, read)
+    ignored = _ignored(params, read)
     composition = Composition(name, type(law).__name__, execution.name, policy, planner, ignored)
     return Parts(law, execution, composition)
 
@@ -379,18 +382,14 @@ def _peak_planner(robot: Robot, evaluator: Evaluator, params: ControllerParams) 
                        track_radius=params.track_radius)
 
 
-def _ignored(name: str, params: ControllerParams, read: set[str]) -> tuple[str, ...]:
-    """The settings of ``params`` set to other than their default that controller ``name`` does not read, each
-    warned about once as ``field = value``."""
+def _ignored(params: ControllerParams, read: set[str]) -> tuple[str, ...]:
+    """The settings of ``params`` set to other than their default that are not in ``read``, as ``field = value``."""
     ignored = []
     for f in fields(ControllerParams):
         default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc,operator]
         value = getattr(params, f.name)
         if f.name not in read and value != default:
             ignored.append(f"{f.name} = {value!r}")
-    if ignored:
-        warnings.warn(f"controller {name!r} does not use {'; '.join(ignored)}: ignored", IgnoredSettingWarning,
-                      stacklevel=3)
     return tuple(ignored)
 
 
