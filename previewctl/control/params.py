@@ -38,7 +38,7 @@ ControllerName = Literal["none", "qp", "gradient", PreviewMode, "horizon", "orac
 """Every controller: ``none`` (eq. 19 alone), ``qp`` (eq. 19 with no null-space motion, always executed by the
 constrained QP: the velocity-damper method of NEO, the peer baseline), ``gradient``, the preview modes, and
 ``horizon`` (the reachability DP over the preview window, replanned; a sampled search on spatial arms) and
-``oracle``, which is non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.oracle`."""
+``oracle``, which is non-causal (it reads the whole future): a reference, see :mod:`previewctl.control.laws.follow`."""
 ExecutionMode = Literal["qp", "pseudoinverse"]
 """How a controller's eq. 19 command is executed: ``qp`` (a constrained QP with joint limits and collision velocity
 dampers, :mod:`previewctl.control.execution`) or ``pseudoinverse`` (the paper's eq. 19 with clamping and scaling)."""

@@ -37,7 +37,7 @@ from previewctl.types import Array
 
 @dataclass(frozen=True)
 class Route:
-    """The chosen sequence of peaks of :class:`ReachController`, one per preview time.
+    """The chosen sequence of peaks of :class:`SweepRoutes`, one per preview time.
 
     Attributes:
         nodes: ``(len, nq)`` configurations, level 1 first.

@@ -40,7 +40,7 @@ answers it exactly on a grid, for planar arms, offline and non-causally (it read
      distance [m]: at a fraction ``s`` of the step the clearance is at least
      ``max(d_l(c) - s (B_l + m), d_l(c') - (1 - s)(B_l + m)) > 0``. The hand leaves the path between
      samples by a little (the path is not linear in joint space); a tracking controller such as
-     :class:`~previewctl.control.oracle.OracleController` keeps it on the path and uses the motion
+     :class:`~previewctl.control.laws.Oracle` keeps it on the path and uses the motion
      as a reference.
 
   So a motion the DP returns is, as sampled and linearly interpolated, within the speed limits
