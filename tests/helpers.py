@@ -1,5 +1,5 @@
 """Plain helpers the test modules share: rotations, a planar4 scenario document, a scenario under the paper's
-eq. 19, a random URDF chain.
+eq. 19, a random URDF chain, a control state made by hand and eq. 19 executed by the pseudo-inverse.
 
 Fixtures live in ``conftest.py``; functions that tests call directly live here and are imported as
 ``from helpers import rot_z`` (pytest puts ``tests/`` on ``sys.path``).
@@ -15,6 +15,13 @@ import numpy as np
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
+from previewctl.control.base import ControlInfo, ControlState
+from previewctl.control.execution import PseudoInverseExecution
+from previewctl.control.params import ControllerParams
+from previewctl.control.tracking import reference
+from previewctl.kinematics import kinematics
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
 from previewctl.sim.scenario import Scenario
 
 Array = NDArray[np.float64]
@@ -57,6 +64,21 @@ def pseudoinverse(scenario: Scenario) -> Scenario:
     """``scenario`` with its controller executed by the paper's eq. 19 instead of the QP."""
     params = dataclasses.replace(scenario.controller.params, execution="pseudoinverse")
     return dataclasses.replace(scenario, controller=dataclasses.replace(scenario.controller, params=params))
+
+
+def control_state(robot: Robot, q: Array, path: HandPath, *, t: float = 0.0, dt: float = 0.01,
+                  frame_due: bool = True) -> ControlState:
+    """The state of a control cycle at configuration ``q`` and time ``t`` [s] on ``path``, held for ``dt`` [s]."""
+    q = np.asarray(q, dtype=float)
+    return ControlState(q, t, kinematics(robot, q[None, :]), path, dt, frame_due)
+
+
+def track(robot: Robot, state: ControlState, v: Array, params: ControllerParams) -> tuple[Array, ControlInfo]:
+    """Eq. 19 for the null-space input ``v`` executed by the pseudo-inverse (clamping and saturation): the joint
+    velocity applied [rad/s] and the cycle's reference and execution."""
+    ref = reference(robot, state, v, params)
+    executed = PseudoInverseExecution(robot, params)(state, ref)
+    return executed.qdot, ControlInfo(ref, executed, state.frame_due)
 
 
 def planar_doc(**sections: Any) -> dict[str, Any]:

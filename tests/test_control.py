@@ -1,5 +1,5 @@
-"""Tests of :mod:`previewctl.control` (params, tracking, gradient, preview, reach, factory): eq. 19
-tracking, null-space input, limits, eqs. 20-21 with stand-in searches, the reachability route."""
+"""Tests of :mod:`previewctl.control` (params, tracking, nullspace, the laws, factory): eq. 19 tracking,
+null-space input, limits, eqs. 20-21 with stand-in searches, the reachability route."""
 
 from __future__ import annotations
 
@@ -9,12 +9,14 @@ from typing import Any, get_args
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import PLANAR_Q0, PLANAR_START, planar_doc
+from helpers import PLANAR_Q0, PLANAR_START, control_state, planar_doc, track
 from numpy.typing import NDArray
 
-from previewctl.control.base import ControlState
-from previewctl.control.factory import build_law, make_controller
-from previewctl.control.gradient import GradientController
+from previewctl.control.base import ControlLaw, ControlState
+from previewctl.control.factory import compose, make_controller
+from previewctl.control.imaginary import SearchLike
+from previewctl.control.laws import Gradient, MultiPreview, Reach, SinglePreview
+from previewctl.control.nullspace import AmsipGradient, wrapped_difference
 from previewctl.control.params import (
     CONTROLLER_NAMES,
     PREVIEW_MODES,
@@ -22,10 +24,10 @@ from previewctl.control.params import (
     ControllerParams,
     ControllerSpec,
 )
-from previewctl.control.preview import PreviewController, wrapped_difference
-from previewctl.control.reach import ReachController
-from previewctl.control.tracking import TrackingController, damped_pseudo_inverse, track
-from previewctl.errors import ConfigurationError, ParameterError
+from previewctl.control.planner import PeakPlanner
+from previewctl.control.sweeps import SweepRoutes
+from previewctl.control.tracking import damped_pseudo_inverse, reference
+from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.load import load_robot
 from previewctl.kinematics import integrate, kinematics
@@ -60,8 +62,16 @@ def panda_scenario() -> Scenario:
     return scenario_from_dict(doc)
 
 
-def state_for(robot: Robot, q: Array, path: HandPath, *, dt: float = 0.01, frame_due: bool = True) -> ControlState:
-    return ControlState(kinematics(robot, q[None, :]), path, dt, frame_due)
+def state_for(robot: Robot, q: Array, path: HandPath, *, t: float = 0.0, dt: float = 0.01,
+              frame_due: bool = True) -> ControlState:
+    return control_state(robot, q, path, t=t, dt=dt, frame_due=frame_due)
+
+
+def law_on(robot: Robot, name: str, params: ControllerParams, searches: list[Any], *,
+           scene: Scene | None = None) -> ControlLaw:
+    """The law of controller ``name`` on stand-in ``searches`` (one per imaginary arm), as the factory builds it."""
+    return compose(ControllerSpec(name, params), robot, scene or Scene(), Evaluator(robot, scene or Scene()),
+                   np.random.default_rng(0), search_factory=lambda i, rng: searches[i]).law
 
 
 def quick(scenario: Scenario, controller: str) -> Any:
@@ -97,23 +107,24 @@ def test_eq19_tracks_panda_path_none_and_gradient(panda_scenario: Scenario) -> N
 def test_null_space_part_does_not_move_the_hand(panda_scenario: Scenario) -> None:
     s = panda_scenario
     ev = Evaluator(s.robot, s.scene, s.index, s.potential)
-    controller = GradientController(s.robot, ev, s.controller.params)
+    params = s.controller.params
+    law = Gradient(AmsipGradient(s.robot, ev, params))
     rng = np.random.default_rng(3)
     for q in [s.q0, *(s.q0 + rng.normal(0, 0.2, 7) for _ in range(3))]:
         q = np.clip(q, s.robot.lower_limits, s.robot.upper_limits)
-        state = state_for(s.robot, q, s.path)
-        _, info = controller.command(0.5, q, state)
+        state = state_for(s.robot, q, s.path, t=0.5)
+        ref = reference(s.robot, state, law.null_input(state).v, params)
         J = state.kin.J_task[0]
-        assert np.linalg.norm(info.qdot_null) > 1e-3
-        assert np.linalg.norm(J @ info.qdot_null) < 1e-10 * np.linalg.norm(info.qdot_null) + 1e-14
+        assert np.linalg.norm(ref.qdot_null) > 1e-3
+        assert np.linalg.norm(J @ ref.qdot_null) < 1e-10 * np.linalg.norm(ref.qdot_null) + 1e-14
 
 
 def test_gradient_matches_directional_derivative(planar4: Robot) -> None:
     scene = scene_from_dict([{"name": "b", "shape": "sphere", "radius": 0.2, "position": [1.2, 0.5]}])
     ev = Evaluator(planar4, scene)
-    controller = GradientController(planar4, ev, ControllerParams(fd_step=1e-5))
+    ascent = AmsipGradient(planar4, ev, ControllerParams(fd_step=1e-5))
     q = np.array(PLANAR_Q0)
-    g = controller.gradient(q, 0.0)
+    g = ascent.gradient(q, 0.0)
     d = np.array([0.3, -0.2, 0.5, 0.1])
     h = 1e-6
     numeric = (ev(q + h * d).S[0] - ev(q - h * d).S[0]) / (2 * h)
@@ -132,8 +143,8 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
     assert lam0 == pytest.approx(0.05)
     assert np.isfinite(J0_sharp).all()
     path = HandPath(np.array([[3.0, 0.0], [2.9, 0.0]]), 1.0)  # pull the hand inwards along x
-    qdot, info = TrackingController(planar4).command(0.0, np.zeros(4), state_for(planar4, np.zeros(4), path))
-    assert np.isfinite(qdot).all() and np.abs(info.qdot_task).max() < 10.0
+    qdot, info = track(planar4, state_for(planar4, np.zeros(4), path), np.zeros(4), ControllerParams())
+    assert np.isfinite(qdot).all() and np.abs(info.reference.qdot_task).max() < 10.0
 
 
 # ----------------------------------------------------------------------------------- limits
@@ -171,11 +182,12 @@ def test_a_step_leaves_the_error_of_the_continuous_law_with_the_step_correction(
     path = HandPath(corner + np.array([[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.1, 0.0]]), 2.0)
     params = ControllerParams(step_correction=step_correction)
     v = np.array([1.0, -0.8, 1.0, 0.6, -1.0, 0.8, 1.0])  # [rad/s], projected on the null space
-    qdot, info = track(robot, t, q, state_for(robot, q, path, dt=dt), v, params)
-    assert not info.clamped and info.null_scale == 1.0
-    assert np.linalg.norm(info.qdot_null) > 0.5
+    qdot, info = track(robot, state_for(robot, q, path, t=t, dt=dt), v, params)
+    assert not info.executed.clamped and info.executed.null_scale == 1.0
+    assert np.linalg.norm(info.reference.qdot_null) > 0.5
     after = kinematics(robot, integrate(robot, q, qdot, dt)[None, :]).tip_position[0]
-    miss = np.linalg.norm(path.position(t + dt) - after - np.exp(-params.feedback_gain * dt) * info.task_error)
+    miss = np.linalg.norm(path.position(t + dt) - after
+                          - np.exp(-params.feedback_gain * dt) * info.reference.task_error)
     if step_correction:
         assert miss < 1e-7
     else:
@@ -191,9 +203,9 @@ def test_a_joint_at_its_position_limit_is_held_and_the_others_track(panda_scenar
     velocity = 0.3 * row / (row @ row)  # asks the elbow for +0.3 rad/s, three times what is left to its limit
     start = kinematics(robot, q[None, :]).tip_position[0]
     state = state_for(robot, q, HandPath(np.array([start, start + velocity]), 1.0))
-    out, info = track(robot, 0.0, q, state, np.zeros(7), ControllerParams(feedback_gain=0.0, step_correction=False))
-    assert info.qdot_task[3] == pytest.approx(0.3)
-    assert info.clamped and info.scale == 1.0
+    out, info = track(robot, state, np.zeros(7), ControllerParams(feedback_gain=0.0, step_correction=False))
+    assert info.reference.qdot_task[3] == pytest.approx(0.3)
+    assert info.executed.clamped and info.executed.scale == 1.0
     assert q[3] + out[3] * 0.01 == pytest.approx(robot.upper_limits[3])
     np.testing.assert_allclose(J @ out, velocity, atol=1e-12)
 
@@ -320,21 +332,22 @@ def planar_ik(robot: Robot, q12: tuple[float, float], tip: Array, elbow: int = 1
 
 def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
     """with_gradient: v = K_v (sum k_i q~_i - q) + K_g grad S. With the imaginary arms at q the pull
-    vanishes and v is exactly the gradient controller's input; it needs the evaluator."""
+    vanishes and v is exactly the gradient controller's input; the factory gives the law that local term
+    (on the scene's evaluator) only with with_gradient."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
     scene = Scene((Obstacle("ball", Sphere(0.2), Static(np.array([0.3, 1.2, 0.0]))),))  # 7 cm from the arm
     evaluator = Evaluator(planar4, scene)
-    params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True)
+    params = ControllerParams(gradient_gain=(2e-4,), weights=(0.25, 0.75), with_gradient=True, imaginary_arms="peaks")
     q = np.array(PLANAR_Q0)
-    controller = PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)], evaluator)
-    _, info = controller.command(1.0, q, state_for(planar4, q, path))
-    local = GradientController(planar4, evaluator, params).null_space_input(q, 1.0)
+    law = law_on(planar4, "multi", params, [FakeGA(q), FakeGA(q)], scene=scene)
+    assert isinstance(law, MultiPreview) and isinstance(law.local, AmsipGradient)
+    null = law.null_input(state_for(planar4, q, path, t=1.0))
+    local = Gradient(AmsipGradient(planar4, evaluator, params)).null_input(state_for(planar4, q, path, t=1.0)).v
     assert np.linalg.norm(local) > 0
-    np.testing.assert_allclose(info.v, local, rtol=1e-12, atol=1e-15)
-    plain = PreviewController(planar4, replace(params, with_gradient=False), "multi", [FakeGA(q)] * 2)
-    np.testing.assert_allclose(plain.command(1.0, q, state_for(planar4, q, path))[1].v, 0.0, atol=1e-15)
-    with pytest.raises(ConfigurationError, match="with_gradient needs the AMSIP evaluator"):
-        PreviewController(planar4, params, "multi", [FakeGA(q), FakeGA(q)])
+    np.testing.assert_allclose(null.v, local, rtol=1e-12, atol=1e-15)
+    plain = law_on(planar4, "multi", replace(params, with_gradient=False), [FakeGA(q)] * 2, scene=scene)
+    assert isinstance(plain, MultiPreview) and plain.local is None
+    np.testing.assert_allclose(plain.null_input(state_for(planar4, q, path, t=1.0)).v, 0.0, atol=1e-15)
     with pytest.raises(ParameterError, match="with_gradient must be true or false"):
         ControllerParams(with_gradient=1)  # type: ignore[arg-type]
 
@@ -346,35 +359,36 @@ def test_preview_controller_computes_eq21_with_fake_searches(planar4: Robot) -> 
     q = np.array(PLANAR_Q0)
     targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
     fakes = [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)]
-    controller = PreviewController(planar4, params, "multi", fakes)
-    _, info = controller.command(1.0, q, state_for(planar4, q, path))
+    law = law_on(planar4, "multi", params, fakes)
+    null = law.null_input(state_for(planar4, q, path, t=1.0))
     expected_v = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
-    np.testing.assert_allclose(info.v, expected_v, atol=1e-12)
-    assert info.targets is not None and info.target_amsip is not None
-    np.testing.assert_allclose(info.targets, np.array(targets))
-    np.testing.assert_allclose(info.target_amsip, np.array([10.0, 20.0]))
+    np.testing.assert_allclose(null.v, expected_v, atol=1e-12)
+    assert null.targets is not None and null.target_amsip is not None
+    np.testing.assert_allclose(null.targets, np.array(targets))
+    np.testing.assert_allclose(null.target_amsip, np.array([10.0, 20.0]))
     # each imaginary arm works on its own future time t + i t~ and hand target r_d(t + i t~)
     assert [c[1] for c in fakes[0].calls] == [1.5] and [c[1] for c in fakes[1].calls] == [2.0]
     np.testing.assert_allclose(fakes[1].calls[0][0], path.position(2.0))
     assert all(len(f.seeded) == 1 for f in fakes)
     # no frame due: no new generation, same targets
-    controller.command(1.01, q, state_for(planar4, q, path, frame_due=False))
+    law.null_input(state_for(planar4, q, path, t=1.01, frame_due=False))
     assert len(fakes[0].calls) == 1
-    controller.command(1.02, q, state_for(planar4, q, path, frame_due=True))
+    law.null_input(state_for(planar4, q, path, t=1.02, frame_due=True))
     assert len(fakes[0].calls) == 2
 
 
 def test_coherent_preview_ramps_the_pull_in_from_zero(planar4: Robot) -> None:
     """Coherent mode: the same targets, but the pull starts at 0 and reaches eq. 21 after settle_frames."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, settle_frames=2)
+    params = ControllerParams(gain=(2.0,), weights=(0.25, 0.75), preview_time=0.5, settle_frames=2,
+                              imaginary_arms="peaks")
     q = np.array(PLANAR_Q0)
     targets = [q + np.array([0.1, -0.2, 0.05, 0.0]), q + np.array([-0.3, 0.1, 0.2, -0.1])]
-    controller = PreviewController(planar4, params, "multi", [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)])
+    law = law_on(planar4, "multi", params, [FakeGA(targets[0], 10.0), FakeGA(targets[1], 20.0)])
     full = 2.0 * (0.25 * targets[0] + 0.75 * targets[1] - q)
     for ramp in (0.0, 0.5, 1.0, 1.0):
-        _, info = controller.command(1.0, q, state_for(planar4, q, path))
-        np.testing.assert_allclose(info.v, ramp * full, atol=1e-12)
+        null = law.null_input(state_for(planar4, q, path, t=1.0))
+        np.testing.assert_allclose(null.v, ramp * full, atol=1e-12)
 
 
 def test_coherent_preview_pulls_nowhere_when_no_imaginary_arm_is_feasible(planar4: Robot) -> None:
@@ -384,9 +398,10 @@ def test_coherent_preview_pulls_nowhere_when_no_imaginary_arm_is_feasible(planar
     target = q + np.array([0.1, -0.2, 0.05, 0.0])
     for coherent, pulled in ((True, False), (False, True)):
         params = ControllerParams(gain=(2.0,), preview_time=0.5, settle_frames=1, coherent=coherent)
-        controller = PreviewController(planar4, params, "single", [FakeGA(target, -1.0)])
-        _, info = controller.command(1.0, q, state_for(planar4, q, path))
-        assert bool(np.any(info.v != 0.0)) == pulled
+        law = law_on(planar4, "single", params, [FakeGA(target, -1.0)])
+        assert isinstance(law, SinglePreview)
+        null = law.null_input(state_for(planar4, q, path, t=1.0))
+        assert bool(np.any(null.v != 0.0)) == pulled
 
 
 def test_single_preview_drives_the_arm_to_the_imaginary_arm_in_the_null_space(planar4: Robot) -> None:
@@ -428,7 +443,8 @@ def test_coherent_imaginary_arms_form_a_chain_from_the_arm(planar4: Robot) -> No
     """Coherent mode: imaginary arm 2 starts from arm 1's peak, not from the real arm. Arm 2 has a better peak
     ``N`` next to the arm and a worse one ``M`` next to arm 1's peak ``P1``; it takes ``M``."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1)
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1,
+                              imaginary_arms="peaks")
     q = np.array(PLANAR_Q0)
     P1 = q + np.array([0.45, 0.0, 0.0, 0.0])  # 0.45 rad from the arm: arm 1's peak
     N = q + np.array([-0.3, 0.0, 0.0, 0.0])  # 0.3 rad from the arm, 0.75 rad from P1
@@ -436,10 +452,9 @@ def test_coherent_imaginary_arms_form_a_chain_from_the_arm(planar4: Robot) -> No
     first = FakeCandidate(np.zeros(2), 0, P1, 100.0)
     second = FakeCandidate(np.zeros(2), 0, N, 200.0)
     searches = [FakePeaksGA(first, [first]), FakePeaksGA(second, [second, FakeCandidate(np.zeros(2), 0, M, 50.0)])]
-    controller = PreviewController(planar4, params, "multi", searches)
-    _, info = controller.command(0.0, q, state_for(planar4, q, path))
-    assert info.targets is not None
-    np.testing.assert_allclose(info.targets, np.array([P1, M]), atol=1e-12)
+    null = law_on(planar4, "multi", params, searches).null_input(state_for(planar4, q, path))
+    assert null.targets is not None
+    np.testing.assert_allclose(null.targets, np.array([P1, M]), atol=1e-12)
 
 
 def reach_setup(planar4: Robot, near_S: tuple[float, float], *,

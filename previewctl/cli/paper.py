@@ -40,8 +40,9 @@ def add_parser(commands: Commands) -> None:
             "staircase with a pillar trap) with none, qp, gradient, single (t~ = 10 s), multi (t~ = 5 s, k = 0.3, "
             "0.65, 0.05, its imaginary arms on reach's planned route), reach, horizon (the reachability DP over "
             "the 15 s preview window, replanned every 2.5 s) and the non-causal oracle, each executed by the "
-            "constrained QP (label: the controller's name; none under the QP is the qp baseline) and by the "
-            "paper's pseudo-inverse eq. 19 (label: <name>-pinv); print one comparison table per scene; write each "
+            "constrained QP (label: the controller's name) and by the paper's pseudo-inverse eq. 19 (label: "
+            "<name>-pinv), but none (eq. 19 alone: none-pinv) and qp (the QP baseline: qp), which run one each; "
+            "print one comparison table per scene; write each "
             "run's log, figures and 3-D replay (replay.html, with the oracle's motion beside it) to "
             "OUT/<scene>/<label>/ and OUT/summary.json."
         )
