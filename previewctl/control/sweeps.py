@@ -110,7 +110,7 @@ class SweepRoutes:
         feasible[pairs[~ok, 0], pairs[~ok, 1]] = False
         return feasible, first
 
-    def choose(self, t: float, q: Array, levels: list[tuple[Array, Array]], path: HandPath) -> Route | None:
+    def choose(self, q: Array, t: float, levels: list[tuple[Array, Array]], path: HandPath) -> Route | None:
         """Viterbi over the levels: the feasible route with the best total S (or the longest prefix)."""
         total = np.zeros(1)
         nodes_prev = q[None, :]

@@ -61,7 +61,7 @@ class Reach:
             if isinstance(route, PeakPlanner):
                 route.peaks = self.arms.levels()
             else:
-                route.choose(t, q, [(nodes, values) for _, nodes, values in self.arms.levels()], state.path)
+                route.choose(q, t, [(nodes, values) for _, nodes, values in self.arms.levels()], state.path)
         assert self.arms.best is not None  # update ran at least once
         targets, values = self.arms.best[0].copy(), self.arms.best[1].copy()
         if isinstance(route, PeakPlanner):
