@@ -14,7 +14,6 @@ from numpy.typing import NDArray
 
 from previewctl.control.base import ControlLaw, ControlState
 from previewctl.control.factory import compose, make_controller
-from previewctl.control.imaginary import SearchLike
 from previewctl.control.laws import Gradient, MultiPreview, Reach, SinglePreview
 from previewctl.control.nullspace import AmsipGradient, wrapped_difference
 from previewctl.control.params import (
@@ -36,6 +35,7 @@ from previewctl.robot.model import Robot
 from previewctl.scene.file import scene_from_dict
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
 from previewctl.search.planar import PlanarRedundancy
 from previewctl.sim.loop import simulate
@@ -342,7 +342,7 @@ def test_preview_with_gradient_adds_the_local_term(planar4: Robot) -> None:
     law = law_on(planar4, "multi", params, [FakeGA(q), FakeGA(q)], scene=scene)
     assert isinstance(law, MultiPreview) and isinstance(law.local, AmsipGradient)
     null = law.null_input(state_for(planar4, q, path, t=1.0))
-    local = Gradient(AmsipGradient(planar4, evaluator, params)).null_input(state_for(planar4, q, path, t=1.0)).v
+    local = AmsipGradient(planar4, evaluator, params)(q, 1.0)
     assert np.linalg.norm(local) > 0
     np.testing.assert_allclose(null.v, local, rtol=1e-12, atol=1e-15)
     plain = law_on(planar4, "multi", replace(params, with_gradient=False), [FakeGA(q)] * 2, scene=scene)
@@ -457,14 +457,14 @@ def test_coherent_imaginary_arms_form_a_chain_from_the_arm(planar4: Robot) -> No
     np.testing.assert_allclose(null.targets, np.array([P1, M]), atol=1e-12)
 
 
-def reach_setup(planar4: Robot, near_S: tuple[float, float], *,
-                coherent: bool = False) -> tuple[ReachController, Array, HandPath, list[Array]]:
+def reach_setup(planar4: Robot, near_S: tuple[float, float], *, coherent: bool = False,
+                settle_frames: int = 1) -> tuple[Reach, Array, HandPath, list[Array]]:
     """Two preview levels, each with a 'near' peak (close to q, same elbow) and a better 'far' one.
 
-    ``coherent=False``: the routes of straight sweeps (the paper-literal ``reach``, and ``reach`` on spatial
-    arms); ``True``: the moves planned by the reachability DP (coherent ``reach`` on planar arms)."""
+    ``coherent=False``: the routes of straight sweeps (the paper-literal ``reach``); ``True``: the moves planned by
+    the reachability DP (coherent ``reach`` on planar arms of up to 4 joints)."""
     path = HandPath(np.array([PLANAR_START, [1.6069, 0.6417]]), 5.0)
-    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=1,
+    params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=0.5, settle_frames=settle_frames,
                               coherent=coherent)
     q = np.array(PLANAR_Q0)
     searches, nears = [], []
@@ -475,32 +475,35 @@ def reach_setup(planar4: Robot, near_S: tuple[float, float], *,
         best = FakeCandidate(np.zeros(2), 0, far, 1000.0)
         searches.append(FakePeaksGA(best, [best, FakeCandidate(np.zeros(2), 1, near, S_near)]))
         nears.append(near)
-    controller = ReachController(planar4, params, Evaluator(planar4), searches, redundancy_map(planar4))
-    return controller, q, path, nears
+    law = law_on(planar4, "reach", params, searches)
+    assert isinstance(law, Reach) and isinstance(law.route, PeakPlanner if coherent else SweepRoutes)
+    return law, q, path, nears
 
 
 def test_reach_follows_a_reachable_route_not_each_times_best(planar4: Robot) -> None:
-    controller, q, path, nears = reach_setup(planar4, (100.0, 100.0))
-    _, info = controller.command(0.0, q, state_for(planar4, q, path))
-    route = controller.route
+    law, q, path, nears = reach_setup(planar4, (100.0, 100.0))
+    null = law.null_input(state_for(planar4, q, path))
+    assert isinstance(law.route, SweepRoutes)
+    route = law.route.route
     assert route is not None and route.complete
     np.testing.assert_allclose(route.nodes, np.array(nears), atol=1e-12)
     np.testing.assert_allclose(route.S, [100.0, 100.0])
-    assert info.targets is not None
-    np.testing.assert_allclose(info.targets, np.array(nears), atol=1e-12)
+    assert null.targets is not None
+    np.testing.assert_allclose(null.targets, np.array(nears), atol=1e-12)
     # the arm follows the planned move: v = (q_lead - q) / dtau, q_lead one sweep step toward node 1,
     # on the path at t + dtau (hand on r_d) and within the speed limits
-    dtau = 0.5 / (controller.sweep_samples + 1)
-    np.testing.assert_allclose(info.v, (route.lead - q) / dtau, atol=1e-9)
+    dtau = 0.5 / (law.route.sweep_samples + 1)
+    np.testing.assert_allclose(null.v, (route.lead - q) / dtau, atol=1e-9)
     lead_hand = kinematics(planar4, route.lead[None, :]).tip_position[0, :2]
     np.testing.assert_allclose(lead_hand, path.position(dtau), atol=1e-9)
     assert np.all(np.abs(route.lead - q) <= planar4.velocity_limits * dtau + 1e-12)
 
 
 def test_reach_drops_a_route_at_its_first_negative_node(planar4: Robot) -> None:
-    controller, q, path, nears = reach_setup(planar4, (100.0, -1.0))
-    controller.command(0.0, q, state_for(planar4, q, path))
-    route = controller.route
+    law, q, path, nears = reach_setup(planar4, (100.0, -1.0))
+    law.null_input(state_for(planar4, q, path))
+    assert isinstance(law.route, SweepRoutes)
+    route = law.route.route
     assert route is not None and not route.complete  # level 2 has no reachable positive node
     np.testing.assert_allclose(route.nodes, np.array(nears[:1]), atol=1e-12)
 
@@ -523,16 +526,16 @@ def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
     step by step. (Seeding every sample's Newton with the sample before it, as was done, solved back onto the
     start: the sweep stood still and jumped to the peak at its last step, so a route of the Panda almost never
     passed the speed test.)"""
-    q, tip, path, red, peak = held_hand_and_peak(panda)
+    q, tip, path, _, peak = held_hand_and_peak(panda)
     params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=1.0, settle_frames=1, coherent=False)
     best = FakeCandidate(np.zeros(7), 0, peak, 100.0)
     searches = [FakePeaksGA(best, [best]), FakePeaksGA(best, [best])]
-    controller = ReachController(panda, params, Evaluator(panda), searches, red)
-    assert controller.planner is None  # the paper-literal mode: straight sweeps
-    controller.command(0.0, q, state_for(panda, q, path))
-    route = controller.route
+    law = law_on(panda, "reach", params, searches)
+    assert isinstance(law, Reach) and isinstance(law.route, SweepRoutes)  # the paper-literal mode: straight sweeps
+    law.null_input(state_for(panda, q, path))
+    route = law.route.route
     assert route is not None and route.complete
-    samples = controller.sweep_samples + 1
+    samples = law.route.sweep_samples + 1
     moved = np.abs(wrapped_difference(panda, q, route.lead))
     whole = np.abs(wrapped_difference(panda, q, peak))
     assert np.all(moved <= panda.velocity_limits / samples + 1e-12)  # one step within the speed limits
@@ -543,15 +546,16 @@ def test_reach_on_a_spatial_arm_sweeps_toward_the_peak(panda: Robot) -> None:
 def test_coherent_reach_on_a_spatial_arm_plans_to_the_latest_peak_by_the_sampled_search(panda: Robot) -> None:
     """A peak 0.6 rad away (within the speed limits over 1 s) at both preview times, with the hand held still: the
     sampled search's goal is the peak of the later time, and its motion ends there, near the peak."""
-    q, tip, path, red, peak = held_hand_and_peak(panda)
+    q, tip, path, _, peak = held_hand_and_peak(panda)
     params = ControllerParams(gain=(1.0,), weights=(0.5, 0.5), preview_time=1.0, settle_frames=1)
     best = FakeCandidate(np.zeros(7), 0, peak, 100.0)
-    controller = ReachController(panda, params, Evaluator(panda), [FakePeaksGA(best, [best])] * 2, red)
-    planner = controller.planner
-    assert planner is not None and planner.window == pytest.approx(2.0)
-    controller.command(0.0, q, state_for(panda, q, path))
-    assert controller.route is None and planner.goal == (1, 0)
-    goal = controller.goal
+    law = law_on(panda, "reach", params, [FakePeaksGA(best, [best])] * 2)
+    assert isinstance(law, Reach) and isinstance(law.route, PeakPlanner)  # planned moves, no straight sweeps
+    planner = law.route.planner
+    assert planner.kind == "sampled" and planner.timing.window == pytest.approx(2.0)
+    law.null_input(state_for(panda, q, path))
+    assert planner.goal == (1, 0)
+    goal = law.route.goal
     assert goal is not None and goal[0] == 1
     np.testing.assert_allclose(goal[1], peak, atol=1e-12)
     motion = planner.motion
@@ -565,57 +569,60 @@ def test_coherent_reach_on_a_planar_arm_follows_the_dp_to_the_latest_reachable_p
         planar4: Robot, near_S: tuple[float, float]) -> None:
     """The better 'far' peaks lie beyond the joint speed limits, so the DP reaches only the 'near' ones; the goal is
     the near peak of the latest level that has a positive one, and the arm follows the DP's move toward it."""
-    controller, q, path, nears = reach_setup(planar4, near_S, coherent=True)
+    law, q, path, nears = reach_setup(planar4, near_S, coherent=True)
     state = state_for(planar4, q, path)
-    v, info = controller.command(0.0, q, state)
-    goal = controller.goal
+    null = law.null_input(state)
+    assert isinstance(law.route, PeakPlanner)  # no straight-sweep route: the DP plans the move
+    goal = law.route.goal
     level = 1 if near_S[1] > 0 else 0
     assert goal is not None and goal[0] == level
     np.testing.assert_allclose(goal[1], nears[level], atol=1e-12)
-    assert controller.route is None  # no straight-sweep route: the DP plans the move
-    assert info.targets is not None
-    np.testing.assert_allclose(info.targets[level], nears[level], atol=1e-12)
-    planner = controller.planner
-    assert planner is not None and planner.motion is not None and planner.result is not None
+    assert null.targets is not None
+    np.testing.assert_allclose(null.targets[level], nears[level], atol=1e-12)
+    planner = law.route.planner
+    assert planner.kind == "dp" and planner.motion is not None and planner.result is not None
     motion = planner.motion
     assert motion.times[-1] == pytest.approx(0.5 * (level + 1), abs=0.5 * planner.result.dt)  # ends at the goal's time
     genes, branch = PlanarRedundancy(planar4).genes_of(np.vstack([motion.q[-1], nears[level]]))
     assert branch[0] == branch[1]
     assert np.all(np.abs(genes[0] - genes[1]) <= np.radians(planner.options.resolution_deg) + 1e-9)
-    expected, _ = planner.follow(0.0, q, state)  # the command is the planner's: eq. 19 toward its motion
-    np.testing.assert_allclose(v, expected, atol=1e-12)
+    # the input is the planner's: toward its motion at the lookahead, v = q̇*(t_l) + K_v (q*(t_l) ⊖ q)
+    q_ref, rate, _ = planner.point(planner.timing.lookahead)
+    np.testing.assert_allclose(null.v, rate + 1.0 * pin.difference(planar4.model, q, q_ref), atol=1e-12)
 
 
 def test_coherent_reach_plans_without_goals_until_the_searches_settle(planar4: Robot) -> None:
     """Before ``settle_frames`` generations the plan is the DP's own best motion (no goal), as ``horizon``'s."""
-    controller, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True)
-    controller.params = replace(controller.params, settle_frames=2)
-    controller.command(0.0, q, state_for(planar4, q, path))
-    planner = controller.planner
-    assert planner is not None and planner.result is not None
-    assert controller.goal is None and planner.result.goal is None
+    law, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True, settle_frames=2)
+    law.null_input(state_for(planar4, q, path))
+    assert isinstance(law.route, PeakPlanner)
+    planner = law.route.planner
+    assert planner.result is not None
+    assert law.route.goal is None and planner.result.goal is None
     assert planner.motion is planner.result.motion and planner.motion.min_S == pytest.approx(planner.result.best_min_S)
 
 
 def test_coherent_reach_at_the_path_end_keeps_no_goal_of_an_earlier_plan(planar4: Robot) -> None:
     """A plan due at the path's end has nothing to track: the arm holds ``q`` and no goal of the last plan
     (whose peaks may be gone by then) is looked up again."""
-    controller, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True)
-    controller.command(0.0, q, state_for(planar4, q, path))
-    assert controller.goal is not None and controller.goal[0] == 1
-    for search in controller.searches:
+    law, q, path, _ = reach_setup(planar4, (100.0, 100.0), coherent=True)
+    law.null_input(state_for(planar4, q, path))
+    assert isinstance(law.route, PeakPlanner)
+    assert law.route.goal is not None and law.route.goal[0] == 1
+    for search in law.arms.searches:
         search._peaks = search._peaks[:1]  # type: ignore[attr-defined]  # only the far peak is left
-    v, _ = controller.command(path.end_time, q, state_for(planar4, q, path))
-    planner = controller.planner
-    assert planner is not None and planner.result is None and controller.goal is None
+    v = law.null_input(state_for(planar4, q, path, t=path.end_time)).v
+    planner = law.route.planner
+    assert planner.result is None and law.route.goal is None
     np.testing.assert_allclose(planner.motion.q, [q])  # type: ignore[union-attr]
     assert np.all(np.isfinite(v))
 
 
-def test_build_law_builds_reach_with_real_searches(planar4: Robot) -> None:
-    controller = build_law(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4,
-                           Evaluator(planar4), np.random.default_rng(0))
-    assert isinstance(controller, ReachController) and len(controller.searches) == 3
+def test_compose_builds_reach_with_real_searches(planar4: Robot) -> None:
+    law = compose(ControllerSpec("reach", ControllerParams(weights=(0.3, 0.65, 0.05))), planar4, Scene(),
+                  Evaluator(planar4), np.random.default_rng(0)).law
+    assert isinstance(law, Reach) and len(law.arms) == 3
+    assert all(isinstance(search, OneStepGA) for search in law.arms.searches)
 
 
 def test_pose_task_tracks_orientation() -> None:
@@ -628,6 +635,6 @@ def test_pose_task_tracks_orientation() -> None:
     target_R = tip.rotation @ pin.exp3(np.array([0.0, 0.0, 0.1]))
     p0 = tip.translation
     path = HandPath(np.array([p0, p0 + np.array([0.001, 0.0, 0.0])]), 1.0, orientation=target_R)
-    _, info = TrackingController(robot).command(0.0, q, state_for(robot, q, path))
-    assert info.task_error.shape == (6,)
-    np.testing.assert_allclose(info.task_error[3:], tip.rotation @ np.array([0.0, 0.0, 0.1]), atol=1e-9)
+    _, info = track(robot, state_for(robot, q, path), np.zeros(robot.nv), ControllerParams())
+    assert info.reference.task_error.shape == (6,)
+    np.testing.assert_allclose(info.reference.task_error[3:], tip.rotation @ np.array([0.0, 0.0, 0.1]), atol=1e-9)
