@@ -7,13 +7,14 @@ import dataclasses
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import control_state, track
 
 import previewctl as pc
 from previewctl.control.base import ControlState
-from previewctl.control.execution import QPExecution
-from previewctl.control.params import ControllerParams
-from previewctl.control.tracking import TrackingController, track
-from previewctl.errors import ParameterError
+from previewctl.control.execution import PseudoInverseExecution, QPExecution
+from previewctl.control.params import ControllerParams, controller_runs
+from previewctl.control.tracking import reference
+from previewctl.errors import IgnoredSettingWarning, ParameterError
 from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -23,8 +24,8 @@ from previewctl.types import Array
 PINV = ControllerParams(execution="pseudoinverse")
 
 
-def _state(robot: Robot, q: Array, path: HandPath, dt: float = 0.01) -> ControlState:
-    return ControlState(kinematics(robot, q[None, :]), path, dt, frame_due=True)
+def _state(robot: Robot, q: Array, path: HandPath, dt: float = 0.01, t: float = 0.0) -> ControlState:
+    return control_state(robot, q, path, t=t, dt=dt)
 
 
 def _hand_path(robot: Robot, q: Array, velocity: Array) -> HandPath:
@@ -46,10 +47,11 @@ def test_without_active_constraints_the_qp_is_eq_19(name: str, planar4: Robot, p
         path = _hand_path(robot, q, rng.normal(0.0, 0.05, 2 if name == "planar4" else 3))
         state = _state(robot, q, path)
         v = rng.normal(0.0, 0.1, robot.nv)
-        expected, info = track(robot, 0.0, q, state, v, PINV)
-        assert info.scale == 1.0 and not info.clamped and info.null_scale == 1.0  # no limit active
-        qdot, report = execution(0.0, q, state, info)
-        np.testing.assert_allclose(qdot, expected, atol=1e-8)
+        expected, info = track(robot, state, v, PINV)
+        assert info.executed.scale == 1.0 and not info.executed.clamped  # no limit active
+        assert info.executed.null_scale == 1.0
+        report = execution(state, info.reference)
+        np.testing.assert_allclose(report.qdot, expected, atol=1e-8)
         assert report.execution == "qp" and report.dampers == 0 and report.slack == 0.0
 
 
@@ -108,7 +110,7 @@ def test_an_approaching_ball_never_beats_the_damper(panda: Robot) -> None:
             assert np.all(((d - previous) / dt)[near] >= bound[near] - 0.02)
             held += int(near.sum())
         qdot = ctrl.step(q, t, dt)
-        assert ctrl.last_info.slack == 0.0
+        assert ctrl.last_info.executed.slack == 0.0
         q = pc.integrate(panda, q, qdot, dt)
         previous = d
     assert held > 100 and closest > 0.5 * params.safety_distance
@@ -127,10 +129,9 @@ def test_an_obstacle_faster_than_the_arm_is_reported_as_slack(planar4: Robot) ->
     params = ControllerParams(velocity_scale=0.1)
     path = _hand_path(planar4, q, np.array([1e-6, 0.0]))
     state = _state(planar4, q, path)
-    _, info = TrackingController(planar4, params).command(0.0, q, state)
-    qdot, report = QPExecution(planar4, pc.Scene((ball,)), params)(0.0, q, state, info)
+    report = QPExecution(planar4, pc.Scene((ball,)), params)(state, reference(planar4, state, np.zeros(4), params))
     assert report.slack > 1.0 and report.dampers >= 1
-    assert np.all(np.abs(qdot) <= 0.1 * planar4.joints.velocity + 1e-12)
+    assert np.all(np.abs(report.qdot) <= 0.1 * planar4.joints.velocity + 1e-12)
 
 
 def test_when_the_dampers_cannot_all_hold_the_links_come_before_the_hand(planar4: Robot) -> None:
@@ -150,11 +151,10 @@ def test_when_the_dampers_cannot_all_hold_the_links_come_before_the_hand(planar4
     slacks = []
     for weight in (1e4, 1e-6):
         params = ControllerParams(velocity_scale=0.3, task_weight=weight)
-        _, info = TrackingController(planar4, params).command(0.0, q, state)
         execution = QPExecution(planar4, pc.Scene((disc,)), params)
-        qdot, report = execution(0.0, q, state, info)
+        report = execution(state, reference(planar4, state, np.zeros(4), params))
         rows = execution.dampers(q, 0.0)
-        assert np.all(rows.G @ qdot <= rows.h + report.slack + 1e-8)
+        assert np.all(rows.G @ report.qdot <= rows.h + report.slack + 1e-8)
         slacks.append(report.slack)
     assert 0.0 < slacks[0] < 1e-3
     assert slacks[0] == pytest.approx(slacks[1], abs=1e-6)
@@ -167,24 +167,37 @@ def test_a_joint_at_its_limit_is_saturated_and_the_others_hold_the_hand(panda: R
     velocity = np.array([0.1, -0.1, 0.0])
     state = _state(panda, q, _hand_path(panda, q, velocity))
     params = ControllerParams(limit_gain=0.0)
-    _, info = track(panda, 0.0, q, state, np.zeros(panda.nv), dataclasses.replace(params, execution="pseudoinverse"))
-    reference = info.qdot_task + info.qdot_null
-    assert reference[0] > 0.05  # eq. 19 wants joint 1 to go on
+    ref = reference(panda, state, np.zeros(panda.nv), params)
+    requested = ref.qdot_task + ref.qdot_null
+    assert requested[0] > 0.05  # eq. 19 wants joint 1 to go on
     J = state.kin.J_task[0]
-    clamped = reference.copy()
+    clamped = requested.copy()
     clamped[0] = 0.0
     assert np.linalg.norm(J @ clamped - velocity) > 0.01  # clamping it alone would lose the hand
-    qdot, report = QPExecution(panda, pc.Scene(), params)(0.0, q, state, info)
+    report = QPExecution(panda, pc.Scene(), params)(state, ref)
+    qdot = report.qdot
+    np.testing.assert_array_equal(report.requested, requested)
     assert qdot[0] <= 1e-12 and report.clamped
     np.testing.assert_allclose(J @ qdot, velocity, atol=1e-3 * np.linalg.norm(velocity))
 
 
-def test_the_qp_controller_runs_by_name_and_the_pseudoinverse_stays_selectable(planar4: Robot) -> None:
+def test_qp_always_runs_the_qp_none_the_pseudoinverse_and_the_others_their_setting(planar4: Robot) -> None:
+    """``qp`` is always the QP and ``none`` always the paper's eq. 19 (the pseudo-inverse), whatever ``execution``
+    says; every other controller runs the execution its setting names (the QP by default)."""
     q = np.array([1.2, 1.8, -2.9, 1.5])
     path = _hand_path(planar4, q, np.array([0.1, 0.0]))
-    assert pc.make_controller("qp", robot=planar4, path=path, params=PINV).execution is not None  # qp is always a QP
-    assert pc.make_controller("none", robot=planar4, path=path, params=PINV).execution is None
-    assert pc.make_controller("none", robot=planar4, path=path).execution is not None  # the default is the QP
+    with pytest.warns(IgnoredSettingWarning, match="'qp' does not use execution = 'pseudoinverse'"):
+        qp = pc.make_controller("qp", robot=planar4, path=path, params=PINV)
+    assert isinstance(qp.execution, QPExecution) and qp.execution.name == "qp"
+    for params in (PINV, ControllerParams()):  # the default execution is the QP: none still runs eq. 19
+        none = pc.make_controller("none", robot=planar4, path=path, params=params)
+        assert isinstance(none.execution, PseudoInverseExecution) and none.execution.name == "pseudoinverse"
+        none.step(q, 0.0)
+        assert none.last_info.executed.execution == "pseudoinverse"
+    assert pc.make_controller("gradient", robot=planar4, path=path).execution.name == "qp"
+    assert pc.make_controller("gradient", robot=planar4, path=path, params=PINV).execution.name == "pseudoinverse"
+    # so a matrix of controllers and executions holds none and qp once each
+    assert controller_runs(["none", "qp"], ["qp", "pseudoinverse"]) == [("none", "pseudoinverse"), ("qp", "qp")]
 
 
 def test_safety_distance_must_be_below_the_influence_distance() -> None:
@@ -220,10 +233,10 @@ def test_a_step_the_qp_limits_still_leaves_the_error_of_the_continuous_law(panda
     q, dt = np.array([0.3, -0.4, 0.2, -1.8, 0.1, 1.6, 0.5]), 0.01
     path = _hand_path(panda, q, np.array([0.05, 0.02, 0.0]))
     params = ControllerParams(velocity_scale=0.5)
-    state = _state(panda, q, path, dt)
-    _, info = track(panda, 0.3, q, state, np.array([3.0, -2.4, 3.0, 1.8, -3.0, 2.4, 3.0]), params)
-    qdot, report = QPExecution(panda, pc.Scene(), params)(0.3, q, state, info)
+    state = _state(panda, q, path, dt, t=0.3)
+    ref = reference(panda, state, np.array([3.0, -2.4, 3.0, 1.8, -3.0, 2.4, 3.0]), params)
+    report = QPExecution(panda, pc.Scene(), params)(state, ref)
     assert report.clamped  # the null-space motion is cut by the speed limits
-    after = kinematics(panda, pc.integrate(panda, q, qdot, dt)[None, :]).tip_position[0]
-    miss = np.linalg.norm(path.position(0.3 + dt) - after - np.exp(-params.feedback_gain * dt) * info.task_error)
+    after = kinematics(panda, pc.integrate(panda, q, report.qdot, dt)[None, :]).tip_position[0]
+    miss = np.linalg.norm(path.position(0.3 + dt) - after - np.exp(-params.feedback_gain * dt) * ref.task_error)
     assert miss < 1e-7
