@@ -6,11 +6,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from helpers import control_state, track
 
 from previewctl.control.base import ControlState
+from previewctl.control.nullspace import limit_avoidance
 from previewctl.control.params import ControllerParams
 from previewctl.control.saturation import saturate, task_scaling
-from previewctl.control.tracking import damped_pseudo_inverse, limit_avoidance, track, velocity_box
+from previewctl.control.tracking import damped_pseudo_inverse, velocity_box
 from previewctl.index.amsi import null_space_projector
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
@@ -92,14 +94,13 @@ def test_random_saturations_stay_in_the_box_and_keep_the_task_direction() -> Non
     assert kinds == {(False, False), (True, False), (True, True)}, "every regime should be drawn"
 
 
-# ------------------------------------------------------------------------------ within track()
+# ----------------------------------------------------- within eq. 19 and the pseudo-inverse execution
 
 
-def _state(robot: Robot, q: Array, velocity: Array) -> ControlState:
-    kin = kinematics(robot, q[None, :])
-    start = kin.tip_position[0]
+def _state(robot: Robot, q: Array, velocity: Array, t: float = 0.0) -> ControlState:
+    start = kinematics(robot, q[None, :]).tip_position[0]
     path = HandPath(np.array([start, start + velocity]), 1.0)
-    return ControlState(kin, path, 0.01, False)
+    return control_state(robot, q, path, t=t, frame_due=False)
 
 
 def test_track_is_the_plain_eq19_when_no_limit_is_active(panda: Robot) -> None:
@@ -108,14 +109,14 @@ def test_track_is_the_plain_eq19_when_no_limit_is_active(panda: Robot) -> None:
     rng = np.random.default_rng(11)
     for _ in range(50):
         q = rng.uniform(lo + 0.2 * (hi - lo), hi - 0.2 * (hi - lo))  # outside the avoidance margin
-        state = _state(panda, q, rng.normal(scale=0.05, size=3))
+        state = _state(panda, q, rng.normal(scale=0.05, size=3), t=0.1)
         v = rng.normal(scale=0.1, size=7)
-        qdot, info = track(panda, 0.1, q, state, v, params)
+        qdot, info = track(panda, state, v, params)
         J = state.kin.J_task[0]
         J_sharp = damped_pseudo_inverse(J, params.damping, params.singular_threshold)[0]
-        xdot = state.path.velocity(0.1) + params.feedback_gain * info.task_error
+        xdot = state.path.velocity(0.1) + params.feedback_gain * info.reference.task_error
         old = J_sharp @ xdot + null_space_projector(J) @ v
-        assert not info.clamped and info.scale == 1.0 and info.null_scale == 1.0
+        assert not info.executed.clamped and info.executed.scale == 1.0 and info.executed.null_scale == 1.0
         np.testing.assert_allclose(qdot, old, rtol=0, atol=1e-12)
 
 
@@ -126,10 +127,10 @@ def test_track_holds_the_hand_when_a_joint_is_at_its_limit(panda: Robot) -> None
     J = kinematics(panda, q[None, :]).J_task[0]
     pushes = np.linalg.pinv(J)[3]  # hand directions that drive the elbow up under the minimum-norm solution
     velocity = 0.1 * pushes / np.linalg.norm(pushes)
-    qdot, info = track(panda, 0.0, q, _state(panda, q, velocity), np.zeros(7), params)
-    assert info.qdot_task[3] > 0 and qdot[3] == 0.0 and info.clamped
+    qdot, info = track(panda, _state(panda, q, velocity), np.zeros(7), params)
+    assert info.reference.qdot_task[3] > 0 and qdot[3] == 0.0 and info.executed.clamped
     np.testing.assert_allclose(J @ qdot, velocity, atol=1e-12)
-    assert info.scale == 1.0
+    assert info.executed.scale == 1.0
     low, high = velocity_box(panda, q, 0.01)
     assert np.all(qdot >= low) and np.all(qdot <= high)
 
@@ -159,18 +160,19 @@ def test_limit_avoidance_is_minus_the_gradient_of_the_margin_cost(kinova: Robot)
 @pytest.mark.parametrize("execution", ["pseudoinverse", "qp"])
 def test_kinova_keeps_its_hand_on_the_path_with_joint_5_held_at_its_limit(kinova: Robot, execution: str) -> None:
     # issue 13's case: minimum-norm tracking drives joint 5 into its 0.524 rad lower limit; clamping it
-    # alone left the hand 43 mm off the path, the other joints can hold it (SNS in the pseudo-inverse; the
-    # QP brakes joint 5 just before its limit and re-solves the task with the others)
+    # alone left the hand 43 mm off the path, the other joints can hold it (SNS in the pseudo-inverse, run by
+    # none; the QP, run by qp, brakes joint 5 just before its limit and re-solves the task with the others)
     start = kinova.configuration_from_angles(np.array([2.48, 2.783, 3.645, -2.988, 0.574, 2.633]))
     end = kinova.configuration_from_angles(np.array([1.887, 2.739, 3.466, -2.678, -0.026, 1.981]))
     hands = kinematics(kinova, np.stack([start, end])).tip_position
     scenario = scenario_from_dict({
         "robot": {"source": "kinova", "q0": start.tolist()},
         "path": {"waypoints": hands.tolist(), "duration": 4.0},
-        "controller": {"name": "none", "execution": execution},
+        "controller": {"name": "none" if execution == "pseudoinverse" else "qp", "execution": execution},
         "timing": {"duration": 4.5},
     })
     run = simulate(scenario, exact_evaluator=Evaluator(scenario.robot, scenario.scene))
+    assert run.execution == execution
     joint5 = kinova.angles_of(run.q)[:, 4]
     assert joint5.min() == pytest.approx(kinova.joints.lower[4], abs=1e-9 if execution == "pseudoinverse" else 5e-3)
     assert (joint5 >= kinova.joints.lower[4] - 1e-9).all()

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from previewctl import load_robot
-from previewctl.control.preview import wrapped_difference
+from previewctl.control.nullspace import wrapped_difference
 from previewctl.control.tracking import joint_velocity_bounds
 from previewctl.robot.joints import JointFacts
 from previewctl.robot.model import Robot
