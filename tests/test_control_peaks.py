@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 
 from previewctl.control.base import ControlState
-from previewctl.control.factory import build_law
+from previewctl.control.factory import compose
+from previewctl.control.nullspace import wrapped_difference
 from previewctl.control.params import SPATIAL_NEIGHBOURS, ControllerParams, ControllerSpec
 from previewctl.control.peaks import PeakTracker
-from previewctl.control.preview import wrapped_difference
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.scene.shapes import Scene
 from previewctl.search.ga import OneStepGA
 from previewctl.search.planar import PlanarRedundancy
 from previewctl.sim.log import RunResult
@@ -105,16 +106,16 @@ def test_a_tracked_peak_of_a_spatial_arm_climbs_with_its_mutants(panda: Robot, s
     q = np.array([-0.14, 0.23, -0.54, -2.16, 0.05, 2.18, 0.79])
     kin = kinematics(panda, q[None, :])
     tip = kin.tip_position[0]
-    state = ControlState(kin, HandPath(np.array([tip, tip + 1e-9]), 5.0), 0.01, frame_due=True)
+    state = ControlState(q, 0.0, kin, HandPath(np.array([tip, tip + 1e-9]), 5.0), 0.01, frame_due=True)
     climbed = {}
     for neighbours in (0, None):
-        law = build_law(ControllerSpec("single", ControllerParams(track_neighbours=neighbours)), panda,
-                        Evaluator(panda), np.random.default_rng(seed))
+        law = compose(ControllerSpec("single", ControllerParams(track_neighbours=neighbours)), panda, Scene(),
+                      Evaluator(panda), np.random.default_rng(seed)).law
         S = []
         for _ in range(30):  # 30 camera frames at the same time: a static landscape
-            _, info = law.command(0.0, q, state)
-            assert info.target_amsip is not None
-            S.append(float(info.target_amsip[0]))
+            null = law.null_input(state)
+            assert null.target_amsip is not None
+            S.append(float(null.target_amsip[0]))
         climbed[neighbours] = S[-1] / S[0]
     assert ControllerParams().neighbours(planar=False) == SPATIAL_NEIGHBOURS > 0
     assert climbed[None] > 3.0  # 1534 -> 5500
@@ -164,10 +165,12 @@ def test_an_elbow_change_kept_unwrapped_passes_the_stretched_wrist(planar4: Robo
 
 def _short(name: str, coherent: bool, duration: float = 3.0, execution: str = "qp", step_correction: bool = True
            ) -> RunResult:
-    """A short staircase run; ``multi``'s imaginary arms on their tracked peaks (``imaginary_arms = "peaks"``)."""
+    """A short staircase run; coherent ``multi``'s imaginary arms on their tracked peaks (``imaginary_arms =
+    "peaks"``, which no other run reads)."""
     scenario = canonical_scenario("paper_planar")
+    arms = "peaks" if name == "multi" and coherent else None
     params = dataclasses.replace(scenario.controller.params, coherent=coherent, execution=execution,
-                                 step_correction=step_correction, imaginary_arms="peaks")
+                                 step_correction=step_correction, imaginary_arms=arms)
     scenario = dataclasses.replace(
         scenario,
         controller=ControllerSpec(name, params),
