@@ -1,6 +1,6 @@
-"""Coherent ``multi`` on a planned route (``imaginary_arms = "route"``, the default): eq. 21 pulls the arm toward where
-the route that ``reach`` plans puts it at the preview times (:class:`previewctl.control.reach.ReachController` with
-``blend=True``)."""
+"""Coherent ``multi`` on a planned route (``imaginary_arms = "route"``, the default where the window planner covers the
+arm): eq. 21 pulls the arm toward where the route that ``reach`` plans puts it at the preview times
+(:class:`previewctl.control.laws.MultiPreview` with the :class:`previewctl.control.imaginary.RoutePoints` policy)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-import previewctl.control.reach as reach_module
 from previewctl.bench.runs import RunSpec, simulate_spec
 from previewctl.bench.scenes import generate
+from previewctl.control.base import ControlState, NullInput
 from previewctl.control.factory import make_controller
+from previewctl.control.imaginary import ArgmaxArms, RoutePoints, TrackedPeaks
+from previewctl.control.laws import MultiPreview
 from previewctl.control.params import ControllerSpec
-from previewctl.control.preview import PreviewController
-from previewctl.control.reach import ReachController
+from previewctl.control.planner import WindowPlanner
 from previewctl.kinematics import kinematics
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import canonical_scenario
@@ -30,15 +31,15 @@ def _multi(scenario: Scenario, duration: float, **params: Any) -> Scenario:
                                timing=dataclasses.replace(scenario.timing, duration=duration))
 
 
-@pytest.mark.parametrize(("params", "routed"), [
-    ({}, True), ({"imaginary_arms": "peaks"}, False), ({"coherent": False}, False),
+@pytest.mark.parametrize(("params", "policy"), [
+    ({}, RoutePoints), ({"imaginary_arms": "peaks"}, TrackedPeaks), ({"coherent": False}, ArgmaxArms),
 ])
-def test_the_imaginary_arms_are_on_the_route_unless_asked_otherwise(params: dict[str, Any], routed: bool) -> None:
+def test_the_imaginary_arms_are_on_the_route_unless_asked_otherwise(params: dict[str, Any], policy: type) -> None:
     law = make_controller(_multi(canonical_scenario("paper_fitted"), 1.0, **params)).law
-    assert isinstance(law, ReachController if routed else PreviewController)
-    assert law.name == "multi"
-    if isinstance(law, ReachController):
-        assert law.planner is not None
+    assert isinstance(law, MultiPreview) and law.name == "multi"
+    assert type(law.policy) is policy
+    if isinstance(law.policy, RoutePoints):
+        assert isinstance(law.policy.planner.planner, WindowPlanner)
 
 
 def test_the_pull_is_eq_21_toward_the_plan_at_the_preview_times(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -47,26 +48,29 @@ def test_the_pull_is_eq_21_toward_the_plan_at_the_preview_times(monkeypatch: pyt
     scenario = _multi(canonical_scenario("paper_fitted"), 4.0)
     controller = make_controller(scenario)
     law = controller.law
-    assert isinstance(law, ReachController) and law.planner is not None
+    assert isinstance(law, MultiPreview) and isinstance(law.policy, RoutePoints) and law.local is None
+    planner = law.policy.planner.planner
     params, seen, worst = scenario.controller.params, [], [0.0]
-    original = reach_module.track
+    original = law.null_input
 
-    def spy(robot: Any, t: float, q: Any, state: Any, v: Any, p: Any, targets: Any, values: Any) -> Any:
-        assert law.planner is not None and law.planner.motion is not None
-        arms = [law.planner.point(t + (i + 1) * params.preview_time)[0] for i in range(len(params.weights))]
+    def spy(state: ControlState) -> NullInput:
+        null = original(state)  # plans when due: the points below are of the plan the command followed
+        t, q = state.t, state.q
+        assert planner.motion is not None
+        arms = [planner.point(t + (i + 1) * params.preview_time)[0] for i in range(len(params.weights))]
         pull = sum(k * (arm - q) for k, arm in zip(params.weights, arms, strict=True))
-        np.testing.assert_allclose(v, np.asarray(params.gain) * pull, atol=1e-12)
-        np.testing.assert_allclose(targets, np.array(arms), atol=0)
-        end = law.planner.motion.times[-1]
-        hands = kinematics(robot, np.array(arms)).tip_position[:, :2]
+        np.testing.assert_allclose(null.v, np.asarray(params.gain) * pull, atol=1e-12)
+        np.testing.assert_allclose(null.targets, np.array(arms), atol=0)
+        end = planner.motion.times[-1]
+        hands = kinematics(scenario.robot, np.array(arms)).tip_position[:, :2]
         for i, hand in enumerate(hands):
             t_i = t + (i + 1) * params.preview_time
             if t_i <= end:
                 worst.append(float(np.linalg.norm(hand - scenario.path.position(t_i)[:2])))
         seen.append(t)
-        return original(robot, t, q, state, v, p, targets, values)
+        return null
 
-    monkeypatch.setattr(reach_module, "track", spy)
+    monkeypatch.setattr(law, "null_input", spy)
     summary = simulate(scenario, controller=controller).summary()
     assert len(seen) == 401 and seen[0] == 0.0  # the first command is checked too: with a ramp it would fail
     # the plan is linear between its samples (chords of up to ~1 mm here); an arm at a wrong time would be
