@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import json
 import re
+from pathlib import Path
 
 import pytest
+from helpers import tiny_planar_toml
 
 from previewctl.cli.main import EXIT_NO_VERSION, build_parser, main
 
@@ -72,3 +75,19 @@ def test_version_is_an_option_of_previewctl_only(capsys: pytest.CaptureFixture[s
     code, out, err = run_main(["robots", "--version"], capsys)
     assert code == 2 and out == ""
     assert "unrecognized arguments: --version" in err
+
+
+def test_an_ignored_setting_is_one_warning_line_and_recorded(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """A scenario shared between controllers may set what the chosen one does not read: the run goes on, stderr
+    says so in one line (no Python warning trace), and the run's summary records it."""
+    scenario = tmp_path / "tiny.toml"
+    scenario.write_text(tiny_planar_toml(
+        "tiny", '[controller]\nname = "none"\npreview_time = 2.0\n[timing]\nduration = 0.05\n'
+        '[output]\nfigures = []\ngif = false\n'))
+    assert main(["run", str(scenario), "--out", str(tmp_path / "run")]) == 0
+    err = capsys.readouterr().err
+    assert "previewctl: warning: controller 'none' does not use preview_time = 2.0: ignored\n" in err
+    assert "IgnoredSettingWarning" not in err and "make_controller" not in err
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["composition"] == "none (Tracking), execution pseudoinverse, ignored: preview_time = 2.0"

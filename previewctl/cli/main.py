@@ -7,13 +7,14 @@ from __future__ import annotations
 import argparse
 import importlib.metadata
 import sys
+import warnings
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TextIO
 
 from previewctl.cli import bench, index, paper, reach_map, robots, run, view
 from previewctl.cli import map as map_command
 from previewctl.cli.common import EXIT_USAGE, ArgumentParser
-from previewctl.errors import PreviewctlError
+from previewctl.errors import IgnoredSettingWarning, PreviewctlError
 
 EXIT_NO_VERSION = 1
 """Exit code of ``previewctl --version`` when previewctl is not installed as a distribution."""
@@ -53,11 +54,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: TextIO | None = None, line: str | None = None) -> None:
+    """previewctl's own warnings as one line (``previewctl: warning: ...``); others as Python shows them."""
+    if issubclass(category, IgnoredSettingWarning):
+        (file or sys.stderr).write(f"previewctl: warning: {message}\n")
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``previewctl`` command."""
     args = build_parser().parse_args(argv)
     try:
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return int(args.func(args))
     except PreviewctlError as exc:
         sys.stderr.write(f"previewctl: error: {exc}\n")
         return EXIT_USAGE
