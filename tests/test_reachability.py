@@ -16,8 +16,9 @@ import pytest
 from previewctl.bench.scenes import generate
 from previewctl.cli.main import main
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import ORACLE_OPTIONS
+from previewctl.control.laws import Horizon
 from previewctl.control.params import ControllerParams
+from previewctl.control.planner import ORACLE_OPTIONS, PlanTiming
 from previewctl.errors import ConfigurationError, ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.load import load_robot, shipped_robots_dir
@@ -674,7 +675,9 @@ def test_horizon_plans_only_over_its_window_every_half_preview_time(plan_window:
     q, dt, plans = np.array(scenario.q0), 0.01, {}
     for k in range(151):
         qdot = ctrl.step(q, k * dt, dt)
-        motion = ctrl.law.motion  # type: ignore[attr-defined]
+        assert isinstance(ctrl.law, Horizon)
+        motion = ctrl.law.planner.motion
+        assert motion is not None
         plans[float(motion.times[0])] = float(motion.times[-1])
         q = integrate(scenario.robot, q, qdot, dt)
     assert list(plans) == pytest.approx([0.0, 0.5, 1.0, 1.5])
@@ -691,11 +694,13 @@ def test_horizon_with_a_plan_latency_follows_each_plan_from_its_arrival() -> Non
     for k in range(151):
         t = k * dt
         qdot = ctrl.step(q, t, dt)
-        law = ctrl.law  # type: ignore[attr-defined]
+        assert isinstance(ctrl.law, Horizon)
+        planner = ctrl.law.planner
+        assert planner.motion is not None and planner.planned is not None
         made = 0.5 * math.floor(t / 0.5 + 1e-9)  # the last plan made
         followed = max(0.0, made - 0.5)
-        assert float(law.motion.times[0]) == pytest.approx(followed), t
-        assert float(law.planned.times[0]) == pytest.approx(made), t
+        assert float(planner.motion.times[0]) == pytest.approx(followed), t
+        assert float(planner.planned.times[0]) == pytest.approx(made), t
         q = integrate(scenario.robot, q, qdot, dt)
     with pytest.raises(ConfigurationError, match=r"plan latency of 0\.6 s is longer than the replan period 0\.5 s"):
         make_controller(scenario, name="horizon", params=dataclasses.replace(params, plan_latency=0.6))
@@ -716,3 +721,15 @@ def test_horizon_refuses_a_bad_replan_period_or_window() -> None:
         ControllerParams(replan_period=0.0)
     with pytest.raises(ParameterError, match=r"plan_window.*-1"):
         ControllerParams(plan_window=-1.0)
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("replan_period", 0.0, r"^replan_period must be > 0, got 0\.0$"),
+    ("window", float("nan"), r"^window must be finite, got nan$"),
+    ("latency", -0.1, r"^latency must be >= 0, got -0\.1$"),
+    ("lookahead", "0.1", r"^lookahead must be a finite number, got '0\.1'; valid: numbers >= 0$"),
+])
+def test_plan_timing_names_the_bad_value(field: str, value: object, message: str) -> None:
+    """The planner's timing (the oracle's and horizon's, and the routes') is checked by the validation layer."""
+    with pytest.raises(ConfigurationError, match=message):
+        PlanTiming(**{field: value})  # type: ignore[arg-type]

@@ -12,8 +12,8 @@ import pytest
 from helpers import pseudoinverse
 
 from previewctl.control.factory import make_controller
-from previewctl.control.oracle import HORIZON_ROADMAP, OracleController
-from previewctl.control.reach import ReachController
+from previewctl.control.laws import Horizon, Reach
+from previewctl.control.planner import HORIZON_ROADMAP, PeakPlanner
 from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
@@ -120,8 +120,10 @@ def test_the_spatial_oracle_follows_its_motion_clear_of_the_ball(crossing: Scena
 
 def test_the_spatial_horizon_replans_with_the_smaller_search(crossing: Scenario) -> None:
     controller = make_controller(crossing, name="horizon")
-    assert isinstance(controller.law, OracleController)
-    assert controller.law.window == pytest.approx(3.0) and controller.law.roadmap == HORIZON_ROADMAP
+    assert isinstance(controller.law, Horizon)
+    planner = controller.law.planner
+    assert planner.kind == "sampled"
+    assert planner.timing.window == pytest.approx(3.0) and planner.roadmap == HORIZON_ROADMAP
     summary = simulate(crossing, controller=controller).summary()
     assert not summary["collided"] and summary["max_hand_error"] < 1e-3
 
@@ -172,5 +174,5 @@ def test_an_arm_with_continuous_joints_turns_through_pi(kinova_turn: Scenario) -
 
 def test_coherent_reach_plans_with_the_search_on_an_arm_with_continuous_joints(kinova_turn: Scenario) -> None:
     law = make_controller(kinova_turn, name="reach").law
-    assert isinstance(law, ReachController) and law.planner is not None
-    assert law.planner.roadmap == HORIZON_ROADMAP
+    assert isinstance(law, Reach) and isinstance(law.route, PeakPlanner)
+    assert law.route.planner.kind == "sampled" and law.route.planner.roadmap == HORIZON_ROADMAP
