@@ -24,7 +24,7 @@ from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main
 from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS
-from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.errors import IgnoredSettingWarning, ParameterError, UnknownNameError
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import scenario_from_dict
@@ -230,11 +230,14 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
     runs = [(s.robot, s.scene, s.controller, s.execution) for s in sweep.runs()]
     for robot in ("planar4", "panda"):
         for scene in (0, 1):
-            expected = [("qp", "qp"), ("none", "pseudoinverse"), ("multi", "qp"), ("multi", "pseudoinverse"),
+            expected = [("none", "pseudoinverse"), ("qp", "qp"), ("multi", "qp"), ("multi", "pseudoinverse"),
                         ("oracle", "qp"), ("oracle", "pseudoinverse")]  # the spatial oracle too
             assert [(c, e) for r, s, c, e in runs if (r, s) == (robot, scene)] == expected
-    assert [(s.controller, s.execution) for s in Sweep(controllers=("qp",), executions=("pseudoinverse",)).runs()] \
-        == [("none", "pseudoinverse")] * 10
+    # none runs under the pseudo-inverse only, qp under the QP only: asked for under the other, they do not run
+    assert Sweep(controllers=("qp",), executions=("pseudoinverse",)).runs() == []
+    assert Sweep(controllers=("none",), executions=("qp",)).runs() == []
+    assert [(s.controller, s.execution) for s in Sweep(controllers=("none", "qp"), executions=("qp",)).runs()] \
+        == [("qp", "qp")] * 10
     # with seeds, only the controllers that draw random numbers run again
     seeded = Sweep(scenes=1, seeds=3, controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
     assert [(s.seed, s.controller) for s in seeded] == [
@@ -251,13 +254,20 @@ def test_the_unseeded_controllers_give_one_run_for_every_seed(name: str) -> None
     assert np.array_equal(runs[0].q, runs[1].q) == (name not in SEEDED_CONTROLLERS)
 
 
-def test_none_under_the_qp_is_the_qp_run() -> None:
-    """What lets the matrix run ``none`` under the QP once, as ``qp``: the two logs are identical."""
+def test_none_runs_the_pseudoinverse_and_qp_the_qp_whatever_the_execution_setting() -> None:
+    """What lets the matrix run ``none`` under the pseudo-inverse only and ``qp`` under the QP only: the execution
+    setting does not change their logs."""
     box = {"name": "wall", "shape": "box", "size": [0.1, 0.1, 0.2], "position": [1.0, 1.2, 0.0], "rpy": [0, 0, 0.3]}
     scenario = scenario_from_dict(planar_doc(obstacles=[box], timing={"duration": 5.0}))
-    none, qp, pinv = simulate(scenario, "none"), simulate(scenario, "qp"), simulate(pseudoinverse(scenario), "none")
-    np.testing.assert_array_equal(none.q, qp.q)
-    assert none.collision_index is None and pinv.collision_index is not None  # the QP's dampers are at work
+    assert scenario.controller.params.execution == "qp"
+    none, pinv = simulate(scenario, "none"), simulate(pseudoinverse(scenario), "none")
+    qp = simulate(scenario, "qp")
+    with pytest.warns(IgnoredSettingWarning, match="'qp' does not use execution = 'pseudoinverse'"):
+        qp_pinv = simulate(pseudoinverse(scenario), "qp")
+    np.testing.assert_array_equal(none.q, pinv.q)
+    np.testing.assert_array_equal(qp.q, qp_pinv.q)
+    assert (none.execution, qp.execution) == ("pseudoinverse", "qp")
+    assert qp.collision_index is None and none.collision_index is not None  # the QP's dampers are at work
 
 
 def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> None:

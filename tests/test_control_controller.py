@@ -85,13 +85,13 @@ def test_step_without_dt_uses_the_time_elapsed() -> None:
     ctrl = pc.make_controller(planar_scenario("none"))
     q = np.array(Q0)
     ctrl.step(q, 0.0)
-    assert ctrl.last_info.dt == ctrl.dt == 0.01  # the first call: the scenario's control period
+    assert ctrl.last_info.executed.dt == ctrl.dt == 0.01  # the first call: the scenario's control period
     ctrl.step(q, 0.004)
-    assert ctrl.last_info.dt == pytest.approx(0.004)
+    assert ctrl.last_info.executed.dt == pytest.approx(0.004)
     ctrl.step(q, 0.004)  # t did not advance: the nominal period again
-    assert ctrl.last_info.dt == 0.01
+    assert ctrl.last_info.executed.dt == 0.01
     ctrl.step(q, 0.5, dt=0.002)
-    assert ctrl.last_info.dt == 0.002
+    assert ctrl.last_info.executed.dt == 0.002
 
 
 # ---------------------------------------------------------------------------------------- camera frames

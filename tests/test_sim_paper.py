@@ -105,7 +105,10 @@ def test_paper_runs_label_each_distinct_run_once() -> None:
     runs = paper_runs(["none", "qp", "multi"])
     assert runs == {"qp": ("qp", "qp"), "multi": ("multi", "qp"), "none-pinv": ("none", "pseudoinverse"),
                     "multi-pinv": ("multi", "pseudoinverse")}
-    assert paper_runs(["none"], ["qp"]) == {"qp": ("qp", "qp")}
-    assert paper_runs(["qp"], ["pseudoinverse"]) == {"none-pinv": ("none", "pseudoinverse")}
+    # none runs under the pseudo-inverse only and qp under the QP only: asked for under the other, they do not run
+    assert paper_runs(["none"], ["qp"]) == {}
+    assert paper_runs(["qp"], ["pseudoinverse"]) == {}
+    assert paper_runs(["none", "qp"], ["qp"]) == {"qp": ("qp", "qp")}
+    assert paper_runs(["none", "qp"], ["pseudoinverse"]) == {"none-pinv": ("none", "pseudoinverse")}
     with pytest.raises(PreviewctlError, match=r"unknown execution 'fast'; valid: qp, pseudoinverse"):
         run_paper_scenes("unused", executions=["fast"])
