@@ -1,8 +1,8 @@
 """Cost of the QP execution layer per control cycle, beside the pseudo-inverse eq. 19 it replaces.
 
-For each scene, a ``none`` controller is stepped along a recorded run (the configurations a ``qp`` run
-visits), once with ``execution = "pseudoinverse"`` and once with ``"qp"``. Prints the median whole cycle of
-each, the QP cycle's p95, the QP layer's own time per cycle (the execution's call, timed inside the cycle:
+For each scene, the law with no null-space input is stepped along a recorded run (the configurations a ``qp``
+run visits), once under the pseudo-inverse (``none``) and once under the QP (``qp``). Prints the median whole cycle
+of each, the QP cycle's p95, the QP layer's own time per cycle (the execution's call, timed inside the cycle:
 dampers, bounds and, when the reference breaks a constraint, the solver) with its p95, and the ratio of the
 cycles. Times are the process's CPU time (``time.process_time``), so that another job on the host does not
 inflate them; ``--wall`` measures wall time instead.
@@ -17,13 +17,15 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
+import warnings
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 import previewctl as pc
+from previewctl.control.base import ControlState, Executed, Execution, Reference
 from previewctl.control.params import ExecutionMode
+from previewctl.errors import IgnoredSettingWarning
 from previewctl.sim.paper import canonical_scenario, shipped_scenarios_dir
 
 SCENES = ("paper_planar", "paper_fitted", "panda_crossing", "xarm7_crossing")
@@ -36,32 +38,35 @@ def _scenario(name: str) -> pc.Scenario:
 
 
 class TimedExecution:
-    """Wraps a controller's execution layer and records the time of each of its calls [s] on ``clock``."""
+    """Wraps a controller's execution and records the time of each of its calls [s] on ``clock``."""
 
-    def __init__(self, layer: Callable[..., Any], clock: Callable[[], float]) -> None:
+    def __init__(self, layer: Execution, clock: Callable[[], float]) -> None:
         self.layer, self.clock, self.times = layer, clock, list[float]()
+        self.name = layer.name
 
-    def __call__(self, *args: Any) -> Any:
+    def __call__(self, state: ControlState, reference: Reference) -> Executed:
         start = self.clock()
-        out = self.layer(*args)
+        out = self.layer(state, reference)
         self.times.append(self.clock() - start)
         return out
 
 
 def cycle_times(scenario: pc.Scenario, execution: ExecutionMode, qs: np.ndarray, times: np.ndarray,
                 clock: Callable[[], float] = time.process_time) -> tuple[np.ndarray, np.ndarray]:
-    """Times [s] of ``step`` and of its execution layer at each recorded state on ``clock``, for a fresh
-    ``none`` controller (the layer's are empty for the pseudo-inverse, which has none)."""
+    """Times [s] of ``step`` and of its execution at each recorded state on ``clock``, for a fresh controller with
+    no null-space input under ``execution``: ``none`` (always the pseudo-inverse) or ``qp`` (always the QP)."""
+    name = {"pseudoinverse": "none", "qp": "qp"}[execution]
     params = dataclasses.replace(scenario.controller.params, execution=execution)
-    ctrl = pc.make_controller(scenario, name="none", params=params)
-    layer = TimedExecution(ctrl.execution, clock) if ctrl.execution is not None else None
-    ctrl.execution = layer  # type: ignore[assignment]
+    ctrl = pc.make_controller(scenario, name=name, params=params)
+    assert ctrl.execution.name == execution
+    layer = TimedExecution(ctrl.execution, clock)
+    ctrl.execution = layer
     out = np.empty(len(qs))
     for k, (q, t) in enumerate(zip(qs, times, strict=True)):
         start = clock()
         ctrl.step(q, float(t), 0.01)
         out[k] = clock() - start
-    return out, np.array(layer.times if layer is not None else [])
+    return out, np.array(layer.times)
 
 
 def main() -> None:
@@ -71,6 +76,8 @@ def main() -> None:
     parser.add_argument("--wall", action="store_true", help="wall time instead of CPU time")
     args = parser.parse_args()
     clock = time.perf_counter if args.wall else time.process_time
+    # the scenes' [controller] tables are their preview controllers': none and qp read only eq. 19's settings
+    warnings.simplefilter("ignore", IgnoredSettingWarning)
     print(f"{'scene':<16}{'nv':>3}{'pinv med':>10}{'qp med':>9}{'qp p95':>9}{'layer med':>11}{'layer p95':>11}"
           f"{'ratio':>7}")
     for name in SCENES:
