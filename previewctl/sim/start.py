@@ -37,6 +37,8 @@ START_TIME = 0.0
 """The time [s] of the loop's first step, at which the start is checked."""
 SHOWN_CONTACTS = 4
 """Most pairs a message lists (the deepest first); the others are counted."""
+PATH_AGREEMENT = 1e-5
+"""How far [m] the planar fast path and Coal may disagree about a distance (a few 1e-6 m for a cylinder)."""
 
 
 @dataclass(frozen=True)
@@ -77,7 +79,9 @@ def obstacle_contacts(evaluator: Evaluator, q: Array, t: float, check: Evaluatio
 
     The links in collision are those of ``check`` (the verdict the loop stops on, planar fast path included);
     each is paired with the obstacles its per-pair distances (Coal) put at ``<= 0``, or, should the two paths
-    disagree at a touch, with its nearest obstacle at the distance of ``check``.
+    disagree at a touch (by at most :data:`PATH_AGREEMENT`), with its nearest obstacle at the distance of
+    ``check``. A link in collision with no obstacle that near gets no pair here (another source's, e.g. a
+    self-collision folded into ``check``).
     """
     colliding = np.flatnonzero(check.link_distances[0] <= 0.0)
     if not colliding.size:
@@ -92,7 +96,7 @@ def obstacle_contacts(evaluator: Evaluator, q: Array, t: float, check: Evaluatio
     for link in colliding:
         mine = np.flatnonzero(clearance.pair_links == link)
         hits = [(int(p), float(pairs[p])) for p in mine if pairs[p] <= 0.0]
-        if not hits and mine.size:
+        if not hits and mine.size and pairs[mine].min() <= PATH_AGREEMENT:
             hits = [(int(mine[np.argmin(pairs[mine])]), float(check.link_distances[0, link]))]
         name = robot.guarded_links[link]
         for pair, distance in hits:
@@ -141,7 +145,7 @@ def start_message(contacts: list[Contact]) -> str:
     shown = [_pair(c) for c in contacts[:SHOWN_CONTACTS]]
     if len(contacts) > SHOWN_CONTACTS:
         shown.append(f"and {len(contacts) - SHOWN_CONTACTS} more")
-    pairs = ", ".join(shown) if shown else "a guarded link and an obstacle"
+    pairs = ", ".join(shown) if shown else "a guarded link (no pair named)"
     text = f"the start configuration robot.q0 collides at t = {START_TIME:g} s (exact geometry): {pairs}; "
     held_by = [c for c in contacts if c.kind == "obstacle" and c.hand and not c.work_surface]
     held = list(dict.fromkeys(c.other for c in held_by))
