@@ -43,6 +43,22 @@ class ScenarioError(PreviewctlError, ValueError):
     """A scenario file with a bad key, type or value."""
 
 
+class StartCollisionError(ScenarioError):
+    """A scenario whose start configuration ``q0`` collides at ``t = 0``: bad input, refused before the run.
+
+    Attributes:
+        pairs: the colliding pairs, deepest first: ``(link, other, distance)`` with ``other`` an obstacle's name
+            (or, for a self-collision, another link's) and ``distance`` the signed distance [m] (<= 0).
+    """
+
+    def __init__(self, message: str, pairs: Iterable[tuple[str, str, float]] = ()) -> None:
+        super().__init__(message)
+        self.pairs = tuple(pairs)
+
+    def __reduce__(self) -> tuple[type[StartCollisionError], tuple[str, tuple[tuple[str, str, float], ...]]]:
+        return type(self), (str(self), self.pairs)  # crosses a process boundary whole (previewctl paper --jobs)
+
+
 class TrajectoryError(PreviewctlError, ValueError):
     """A hand path that cannot be built (too few waypoints, non-positive duration, ...)."""
 

@@ -106,7 +106,11 @@ def atomic_folder(path: Path) -> Iterator[Path]:
     """
     path = check_output_folder(path)
     remove_stale(path)
-    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=_prefix(path), suffix=".tmp"))
+    try:
+        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=_prefix(path), suffix=".tmp"))
+    except OSError as exc:  # the folder changed since it was checked
+        raise OutputError(f"output folder {str(path)!r}: cannot write in folder {str(path.parent)!r}: "
+                          f"{exc.strerror or exc}") from exc
     try:
         os.chmod(tmp, 0o755)  # mkdtemp makes it private; a result is an ordinary folder
         yield tmp
@@ -134,6 +138,7 @@ def check_output_file(path: str | os.PathLike[str]) -> Path:
         raise OutputError(f"output file {str(out)!r}: folder {str(parent)!r} does not exist; create it first")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"output file {str(out)!r}: folder {str(parent)!r} is not writable")
+    _probe(out, f"output file {str(out)!r}")
     return out
 
 
@@ -152,7 +157,22 @@ def check_output_folder(path: str | os.PathLike[str]) -> Path:
         raise OutputError(f"output folder {str(out)!r}: cannot create {str(out.parent)!r}: {exc.strerror}") from exc
     if not os.access(out.parent, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {str(out)!r}: folder {str(out.parent)!r} is not writable")
+    _probe(out, f"output folder {str(out)!r}")
     return out
+
+
+def _probe(path: Path, what: str) -> None:
+    """Make and remove an empty temporary sibling of ``path`` (named as its temporaries are, so that a leftover is
+    removed by the next write): the permission bits do not say everything (root passes ``os.access`` on a
+    read-only file system, and nothing can be made under ``/proc``).
+
+    Raises:
+        OutputError: ``what`` cannot be written, with the folder and the OS's reason.
+    """
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=path.parent, prefix=_prefix(path), suffix=".tmp"))
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot write in folder {str(path.parent)!r}: {exc.strerror or exc}") from exc
 
 
 def remove_stale(path: Path) -> None:

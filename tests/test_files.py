@@ -16,7 +16,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pytest
 
-from previewctl.files import append_line, atomic_folder, atomic_write, atomic_write_bytes, remove_stale, save_figure
+from previewctl.errors import OutputError
+from previewctl.files import (
+    append_line,
+    atomic_folder,
+    atomic_write,
+    atomic_write_bytes,
+    check_output_file,
+    check_output_folder,
+    remove_stale,
+    save_figure,
+)
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path: Path) -> None:
@@ -210,3 +220,15 @@ def test_append_line_after_a_torn_last_line_starts_a_new_line(tmp_path: Path) ->
         handle.write(b'{"b": ')
     append_line(log, '{"c": 3}\n')
     assert log.read_bytes() == b'{"a": 1}\n{"b": \n{"c": 3}\n'
+
+
+def test_a_folder_where_nothing_can_be_made_is_refused_with_the_os_reason(tmp_path: Path) -> None:
+    """/proc passes the permission check (for root) but takes no new entry: the check tries, and leaves nothing."""
+    with pytest.raises(OutputError, match=r"^output folder '/proc/previewctl-out': cannot write in folder '/proc': "):
+        check_output_folder("/proc/previewctl-out")
+    with pytest.raises(OutputError, match=r"^output file '/proc/m\.png': cannot write in folder '/proc': "):
+        check_output_file("/proc/m.png")
+    with pytest.raises(OutputError, match="cannot write in folder '/proc'"), atomic_folder(Path("/proc/run")):
+        raise AssertionError("never entered")
+    assert check_output_folder(tmp_path / "run") == tmp_path / "run"
+    assert list(tmp_path.iterdir()) == [], "the check leaves no trace"

@@ -22,11 +22,14 @@ from previewctl.errors import (
     ParameterError,
     PreviewctlError,
     RobotLoadError,
+    ScenarioError,
     SceneError,
 )
 from previewctl.index.amsi import IndexParams
 from previewctl.robot.model import Robot
-from previewctl.scene.shapes import Box, Halfspace, Sphere
+from previewctl.scene.motion import ConstantVelocity, Periodic, Static, Waypoints
+from previewctl.scene.shapes import Box, Halfspace, Obstacle, Scene, Sphere
+from previewctl.sim.scenario import scenario_from_dict
 from previewctl.sim.schema import Timing
 
 
@@ -256,3 +259,80 @@ def test_huge_prismatic_values(tmp_path: Path) -> None:
         assert np.isfinite(previewctl.avoidance(robot, np.array([value, 0.3, 0.2, 0.1])).amsi)
     with pytest.raises(ConfigurationError, match=re.escape("q[0, 0] = 2e+06 (joint 'slide') is out of range")):
         previewctl.avoidance(robot, np.array([2e6, 0.3, 0.2, 0.1]))
+
+
+# ------------------------------------------------------------------------- issue 30: scenes and --out
+
+
+def test_scene_of_one_obstacle_says_to_pass_a_tuple() -> None:
+    ball = Obstacle("ball", Sphere(0.1), Static([0.5, 0.5, 0.5]))
+    with pytest.raises(SceneError, match=re.escape("Scene takes a tuple of obstacles, got one Obstacle 'ball': "
+                                                   "pass a tuple, Scene((obstacle,))")):
+        Scene(ball)  # type: ignore[arg-type]
+    assert Scene([ball]).obstacles == (ball,)  # a list is taken as its tuple
+
+
+@pytest.mark.parametrize(("obstacles", "message"), [
+    (["ball"], "Scene obstacles[0] must be an Obstacle, got str 'ball': build it with Obstacle(name, shape, motion)"),
+    ((Obstacle("a", Sphere(0.1)), {"name": "b"}), "Scene obstacles[1] must be an Obstacle, got dict {'name': 'b'}"),
+    ("ball", "Scene takes a tuple of obstacles, got str 'ball': pass a tuple of Obstacle"),
+    (None, "Scene takes a tuple of obstacles, got NoneType None"),
+])
+def test_scene_of_something_else_names_the_element_and_its_type(obstacles: Any, message: str) -> None:
+    with pytest.raises(SceneError, match=re.escape(message)):
+        Scene(obstacles)
+
+
+PLANAR_MOTIONS = [
+    (Static([0.5, 0.5]), "position [0.5, 0.5]"),
+    (ConstantVelocity([0.5, 0.5, 0.5], [0.1, 0.0]), "velocity [0.1, 0.0]"),
+    (Waypoints([0.0, 1.0], [[0.5, 0.5], [0.6, 0.5]]), "waypoints [[0.5, 0.5], [0.6, 0.5]]"),
+    (Periodic([0.5, 0.5], [0.0, 0.1, 0.0], 4.0), "center [0.5, 0.5]"),
+]
+
+
+@pytest.mark.parametrize(("motion", "given"), PLANAR_MOTIONS)
+def test_a_2d_obstacle_around_a_spatial_arm_is_refused(motion: Any, given: str, planar4: Robot, panda: Robot) -> None:
+    scene = Scene((Obstacle("ball", Sphere(0.05), motion),))
+    message = (f"obstacle 'ball': {given} is 2-D, but robot 'panda' is spatial (task 'position'): give 3-D positions "
+               "[x, y, z] [m] (2-D ones are for planar arms)")
+    with pytest.raises(SceneError, match=re.escape(message)):
+        previewctl.Evaluator(panda, scene)
+    path = previewctl.HandPath([[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]], duration=10.0)
+    with pytest.raises(SceneError, match=re.escape(message)):
+        previewctl.make_controller("none", robot=panda, path=path, scene=scene)
+    previewctl.Evaluator(planar4, scene)  # a planar arm moves in z = 0: 2-D is what it means
+
+
+def test_a_2d_obstacle_in_a_spatial_scenario_file_is_refused_when_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = {"name": "flat", "robot": {"source": "panda", "q0": [-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147,
+                                                               0.785]},
+           "path": {"waypoints": [[0.45, -0.25, 0.35], [0.45, 0.25, 0.35]], "duration": 10.0},
+           "obstacles": [{"name": "ball", "shape": "sphere", "radius": 0.08, "position": [0.06, 0.6]}]}
+    message = ("obstacle 'ball': position [0.06, 0.6] is 2-D, but robot 'panda' is spatial (task 'position'): give "
+               "3-D positions [x, y, z] [m]")
+    with pytest.raises(ScenarioError, match=re.escape(f"flat.toml: {message}")):
+        scenario_from_dict(doc, source="flat.toml")
+    path = tmp_path / "flat.toml"
+    path.write_text(toml(doc))
+    out = tmp_path / "out"
+    fails_with(["run", str(path), "--out", str(out)], f"{path}: {message}", capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [["run", "SCENARIO", "--out", "/proc/previewctl-out"],
+                                  ["map", "--target", "1.5,1.0", "--out", "/proc/previewctl-map.png"]])
+def test_an_output_where_nothing_can_be_written_is_refused_before_anything_runs(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """/proc passes os.access for root, yet nothing can be made there: the folder and the OS's reason, exit 2."""
+    def no_simulation(*args: object, **kwargs: object) -> None:
+        raise AssertionError("simulated before checking --out")
+
+    monkeypatch.setattr(run_command, "simulate", no_simulation)
+    argv = [scenario_file(tmp_path) if a == "SCENARIO" else a for a in argv]
+    kind = "output folder" if argv[0] == "run" else "output file"
+    fails_with(argv, f"{kind} {argv[-1]!r}: cannot write in folder '/proc': ", capsys)
+    assert not Path(argv[-1]).exists()

@@ -11,6 +11,7 @@ from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
+from previewctl.sim.start import check_start, exact_evaluator
 from previewctl.viz.figures import make_figures
 from previewctl.viz.replay import REPLAY_NAME, write_replay
 
@@ -24,7 +25,7 @@ def add_parser(commands: Commands) -> None:
         "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is collision-free and "
         "its largest hand error is at most the tolerance. Exit status: 0 success, "
         f"{EXIT_FAILED_RUN} the run failed (a collision or a hand error over the tolerance), "
-        f"{EXIT_USAGE} bad input.",
+        f"{EXIT_USAGE} bad input (a start configuration in collision included: refused before anything runs).",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
@@ -51,11 +52,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
     scenario = load_scenario(args.scenario, auto_start=args.q0 == "auto")
     name = args.controller or scenario.controller.name
+    exact = exact_evaluator(scenario)
+    check_start(scenario, exact)  # before --out is checked (its parents created): a bad start writes nothing
     out = check_output_folder(args.out or Path("out") / f"{scenario.name}-{name}")
     bar = ProgressBar()
     try:
         result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
-                          seed=args.seed, tolerance=args.tolerance)
+                          seed=args.seed, exact_evaluator=exact, tolerance=args.tolerance)
     finally:
         bar.close()
     summary = result.summary()

@@ -9,11 +9,34 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from previewctl.errors import SceneError
 from previewctl.robot.model import Robot
-from previewctl.scene.motion import Static
+from previewctl.scene.motion import Static, planar_fields
 from previewctl.scene.shapes import Scene
 from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array, IntArray
+from previewctl.validation import show
+
+
+def check_dimensions(robot: Robot, scene: Scene) -> None:
+    """Refuse an obstacle placed by 2-D vectors (padded with ``z = 0``) around a spatial arm.
+
+    2 entries are for a planar arm (``task = "planar"`` or a planar chain), which moves in the plane ``z = 0``;
+    around any other arm such an obstacle would silently sit at ``z = 0``. Every path that pairs a robot with a
+    scene comes through here (:class:`Clearance`, and scenario files when they are read).
+
+    Raises:
+        SceneError: naming the obstacle, the field, the value given and the robot.
+    """
+    if robot.task == "planar" or robot.planar is not None:
+        return
+    for obstacle in scene.obstacles:
+        for name in planar_fields(obstacle.motion):
+            given = np.asarray(getattr(obstacle.motion, name))[..., :2]
+            raise SceneError(
+                f"obstacle {obstacle.name!r}: {name} {show(given.tolist())} is 2-D, but robot {robot.name!r} is "
+                f"spatial (task {robot.task!r}): give 3-D positions [x, y, z] [m] (2-D ones are for planar arms)"
+            )
 
 
 @dataclass(frozen=True)
@@ -40,6 +63,9 @@ class Clearance:
     Every guarded link is paired with every obstacle, except the hand's links with a work surface
     (:class:`~previewctl.scene.shapes.Obstacle`).
 
+    Raises:
+        SceneError: an obstacle placed in 2-D around a spatial arm (:func:`check_dimensions`).
+
     Attributes:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
@@ -47,6 +73,7 @@ class Clearance:
     """
 
     def __init__(self, robot: Robot, scene: Scene) -> None:
+        check_dimensions(robot, scene)
         self.robot, self.scene = robot, scene
         self.geometry = pin.GeometryModel()
         model = robot.model

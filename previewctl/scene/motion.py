@@ -56,8 +56,9 @@ def _frozen(array: NDArray[np.float64]) -> NDArray[np.float64]:
     return array
 
 
-def _points(value: object, name: str, *, single: bool) -> NDArray[np.float64]:
-    """Validate a 3-vector (``single``) or a (K, 3) array; 2-entry rows get ``z = 0``.
+def _points(value: object, name: str, *, single: bool, flat: list[str] | None = None) -> NDArray[np.float64]:
+    """Validate a 3-vector (``single``) or a (K, 3) array; 2-entry rows get ``z = 0`` (and ``name`` is appended
+    to ``flat``: the motion remembers it, see :func:`planar_fields`).
 
     Returns:
         A fresh float64 array of shape (3,) or (K, 3) with K >= 1.
@@ -72,6 +73,8 @@ def _points(value: object, name: str, *, single: bool) -> NDArray[np.float64]:
         )
     _check_finite(array, name)
     if array.shape[-1] == 2:
+        if flat is not None:
+            flat.append(name)
         array = np.concatenate((array, np.zeros((*array.shape[:-1], 1))), axis=-1)
     return array
 
@@ -102,10 +105,25 @@ def _identity() -> NDArray[np.float64]:
     return np.eye(3)
 
 
+def planar_fields(motion: Motion) -> tuple[str, ...]:
+    """The fields of ``motion`` given with 2 entries (padded with ``z = 0``: written for a planar arm), e.g.
+    ``("position",)``; ``()`` for a motion given in 3-D or one defined outside this module."""
+    flat = getattr(motion, "_planar_fields", ())
+    return flat if isinstance(flat, tuple) else ()
+
+
 class _Placed:
-    """Shared behaviour: ``placement`` from ``positions`` plus the fixed ``rotation``."""
+    """Shared behaviour: ``placement`` from ``positions`` plus the fixed ``rotation``; ``_planar_fields`` names
+    the fields given with 2 entries (:func:`planar_fields`)."""
 
     rotation: NDArray[np.float64]
+    _planar_fields: tuple[str, ...] = ()
+
+    def _points(self, name: str, *, single: bool = True) -> None:
+        """Validate and freeze field ``name`` (:func:`_points`), remembering whether it had 2 entries."""
+        flat = list(self._planar_fields)
+        object.__setattr__(self, name, _frozen(_points(getattr(self, name), name, single=single, flat=flat)))
+        object.__setattr__(self, "_planar_fields", tuple(flat))
 
     def positions(self, times: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover
         """Positions at times of shape (T,) [s], shape (T, 3) [m]."""
@@ -149,7 +167,7 @@ class Static(_Placed):
         Raises:
             SceneError: If a field is malformed; the message names the bad value.
         """
-        object.__setattr__(self, "position", _frozen(_points(self.position, "position", single=True)))
+        self._points("position")
         object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
 
     def positions(self, times: ArrayLike) -> NDArray[np.float64]:
@@ -188,8 +206,8 @@ class ConstantVelocity(_Placed):
         Raises:
             SceneError: If a field is malformed; the message names the bad value.
         """
-        object.__setattr__(self, "position", _frozen(_points(self.position, "position", single=True)))
-        object.__setattr__(self, "velocity", _frozen(_points(self.velocity, "velocity", single=True)))
+        self._points("position")
+        self._points("velocity")
         object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
         object.__setattr__(self, "start_time", _scalar(self.start_time, "start_time"))
 
@@ -247,7 +265,8 @@ class Waypoints(_Placed):
                 f"times must be strictly increasing, but times[{i}] = {float(times[i])!r} and "
                 f"times[{i + 1}] = {float(times[i + 1])!r} (in times = {show(times)})"
             )
-        points = _points(self.waypoints, "waypoints", single=False)
+        self._points("waypoints", single=False)
+        points = self.waypoints
         if points.shape[0] != times.shape[0]:
             raise SceneError(
                 f"waypoints must have one row per time: got {points.shape[0]} rows for "
@@ -258,7 +277,6 @@ class Waypoints(_Placed):
         if self.loop and times.shape[0] < 2:
             raise SceneError(f"loop needs at least 2 times (a period > 0), got times = {show(times)}")
         object.__setattr__(self, "times", _frozen(times))
-        object.__setattr__(self, "waypoints", _frozen(points))
         object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
         object.__setattr__(self, "loop", bool(self.loop))
 
@@ -309,8 +327,8 @@ class Periodic(_Placed):
         Raises:
             SceneError: If a field is malformed; the message names the bad value.
         """
-        object.__setattr__(self, "center", _frozen(_points(self.center, "center", single=True)))
-        object.__setattr__(self, "amplitude", _frozen(_points(self.amplitude, "amplitude", single=True)))
+        self._points("center")
+        self._points("amplitude")
         period = _scalar(self.period, "period")
         if period <= 0.0:
             raise SceneError(f"period must be > 0 [s], got {period!r}")

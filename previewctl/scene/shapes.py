@@ -157,11 +157,17 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class Scene:
-    """The obstacles around the arm."""
+    """The obstacles around the arm: ``Scene((ball, box))`` (a list is taken as its tuple).
+
+    Raises:
+        SceneError: ``obstacles`` is one obstacle or not a sequence, an element is not an :class:`Obstacle`, or
+            two obstacles share a name.
+    """
 
     obstacles: tuple[Obstacle, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "obstacles", _obstacle_tuple(self.obstacles))
         names = [o.name for o in self.obstacles]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
@@ -171,3 +177,25 @@ class Scene:
     def names(self) -> tuple[str, ...]:
         """Obstacle names, in order."""
         return tuple(o.name for o in self.obstacles)
+
+
+def _obstacle_tuple(obstacles: object) -> tuple[Obstacle, ...]:
+    """``obstacles`` (a tuple or list of :class:`Obstacle`) as a tuple.
+
+    Raises:
+        SceneError: one obstacle instead of a sequence, something else than a tuple or list, or an element that
+            is not an :class:`Obstacle`; the message names it and its type.
+    """
+    if isinstance(obstacles, Obstacle):
+        raise SceneError(f"Scene takes a tuple of obstacles, got one Obstacle {obstacles.name!r}: pass a tuple, "
+                         f"Scene((obstacle,))")
+    if not isinstance(obstacles, (tuple, list)):
+        raise SceneError(f"Scene takes a tuple of obstacles, got {type(obstacles).__name__} {show(obstacles)}: "
+                         f"pass a tuple of Obstacle, e.g. Scene((Obstacle('ball', Sphere(0.1), Static([0.5, 0.5, "
+                         f"0.0])),))")
+    for i, obstacle in enumerate(obstacles):
+        if not isinstance(obstacle, Obstacle):
+            raise SceneError(f"Scene obstacles[{i}] must be an Obstacle, got {type(obstacle).__name__} "
+                             f"{show(obstacle)}: build it with Obstacle(name, shape, motion), e.g. "
+                             f"Obstacle('ball', Sphere(0.1), Static([0.5, 0.5, 0.0]))")
+    return tuple(obstacles)

@@ -1,6 +1,7 @@
 """Closed-loop kinematic simulation of a scenario.
 
-The loop, with control period ``dt``:
+Before the first step, a start ``q0`` in collision is refused as bad input
+(:func:`~previewctl.sim.start.check_start`: nothing runs, nothing is logged). The loop, with control period ``dt``:
 
 1. at ``t_k = k dt`` the state is checked exactly: AMSIP, per-link clearance and collision from an
    :class:`~previewctl.index.evaluator.Evaluator` on the robot loaded with ``geometry="mesh"`` (the exact URDF
@@ -35,6 +36,8 @@ from previewctl.kinematics import integrate
 from previewctl.robot.model import Robot
 from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario, Verdict
+from previewctl.sim.start import check_start
+from previewctl.sim.start import exact_evaluator as exact_evaluator_of
 from previewctl.types import Array
 
 __all__ = ["Progress", "frame_index", "simulate"]  # frame_index lives in control.controller now
@@ -67,25 +70,29 @@ def simulate(
             tests and experiments), e.g. from :func:`~previewctl.control.factory.make_controller`.
             A controller keeps its searches and frame clock between steps: do not reuse one.
         exact_evaluator: the evaluator of the exact check (default: one on the robot reloaded with
-            ``geometry="mesh"``; pass one to share the mesh loading between runs).
+            ``geometry="mesh"``, :func:`~previewctl.sim.start.exact_evaluator`; pass one to share the mesh
+            loading between runs).
         tolerance: largest hand error [m] of a successful run (default: the scenario's ``[verdict]``).
 
     Returns:
         The log.
 
     Raises:
+        StartCollisionError: ``scenario.q0`` collides at ``t = 0`` on the exact check
+            (:func:`~previewctl.sim.start.check_start`), before anything runs.
         PreviewctlError: unknown controller name, an exact evaluator for another robot, a tolerance that
             is not a positive number, ...
     """
     verdict = scenario.verdict if tolerance is None else Verdict(tolerance)
-    if controller is None:
-        controller = make_controller(scenario, name=controller_name, seed=seed)
     if exact_evaluator is None:
-        exact_evaluator = Evaluator(scenario.exact_robot(), scenario.scene, scenario.index, scenario.potential)
+        exact_evaluator = exact_evaluator_of(scenario)
     if exact_evaluator.robot.nq != scenario.robot.nq:
         raise PreviewctlError(
             f"exact evaluator robot has nq={exact_evaluator.robot.nq}, the scenario robot nq={scenario.robot.nq}"
         )
+    check_start(scenario, exact_evaluator)  # a start in collision is bad input, refused before the first step
+    if controller is None:
+        controller = make_controller(scenario, name=controller_name, seed=seed)
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
     log = _Log(scenario.timing.steps + 1, robot, links)
     count = _run(scenario, controller, exact_evaluator, log, progress, stop_on_collision)

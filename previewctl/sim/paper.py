@@ -49,6 +49,7 @@ from previewctl.files import atomic_folder, atomic_write_bytes, check_output_fol
 from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
+from previewctl.sim.start import check_start
 
 _PAPER_PARAMETERS: dict[str, dict[str, Any]] = {
     "single": {"preview_time": 10.0},
@@ -190,9 +191,12 @@ def run_paper_scenes(
         ``{scene: {label: summary}}`` in plan order (also written, atomically, to ``out_dir/summary.json``).
 
     Raises:
-        PreviewctlError: an unknown scene, controller or execution name (checked before anything runs).
+        PreviewctlError: an unknown scene, controller or execution name, or a scene whose start collides
+            (:class:`~previewctl.errors.StartCollisionError`); checked before anything runs.
     """
     plan = paper_plan(scenes, controllers, executions)
+    for scene in dict.fromkeys(run.scene for run in plan):  # a start in collision: refused before anything runs
+        check_start(canonical_scenario(scene))
     out = check_output_folder(out_dir)
     summaries: dict[PaperRun, dict[str, Any]] = {}
     if jobs <= 1:

@@ -68,6 +68,7 @@ from previewctl.index.potential import Potential
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.robot.reach import reach_of
+from previewctl.scene.clearance import check_dimensions
 from previewctl.scene.file import scene_from_tables
 from previewctl.scene.motion import rpy_to_matrix
 from previewctl.scene.shapes import Scene
@@ -193,6 +194,7 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
     path = _path(doc.path, robot)
     _check_reach(robot, path)
     scene = scene_from_tables(doc.obstacles, base)
+    check_dimensions(robot, scene)  # a 2-D obstacle around a spatial arm, refused when the file is read
     index_params, potential = IndexParams(**doc.index.model_dump()), Potential(**doc.potential.model_dump())
     if doc.robot.q0 == "auto":
         q0 = _best_start(robot, path, Evaluator(robot, scene, index_params, potential))
