@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from previewctl.cli.common import EXIT_FAILED_RUN, EXIT_USAGE, Commands, ProgressBar, seed_value, verdict_text
+from previewctl.cli.common import (
+    EXIT_FAILED_RUN,
+    EXIT_USAGE,
+    Commands,
+    ProgressBar,
+    seed_value,
+    self_collision_text,
+    verdict_text,
+)
 from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
@@ -21,9 +29,9 @@ def add_parser(commands: Commands) -> None:
         "run",
         help="simulate a scenario file and write its log and figures",
         description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
-        "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is collision-free and "
-        "its largest hand error is at most the tolerance. Exit status: 0 success, "
-        f"{EXIT_FAILED_RUN} the run failed (a collision or a hand error over the tolerance), "
+        "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is free of collisions (with "
+        "obstacles and with itself) and its largest hand error is at most the tolerance. Exit status: 0 success, "
+        f"{EXIT_FAILED_RUN} the run failed (a collision, a self-collision or a hand error over the tolerance), "
         f"{EXIT_USAGE} bad input.",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
@@ -71,6 +79,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
                  if summary["collided"] else "yes")
+    self_collision = f"NO: {self_collision_text(summary)}" if summary["self_collided"] else "yes"
+    pairs = len(result.self_pairs)
     error = f"{metre(summary['max_hand_error'])} (tolerance {metre(summary['tolerance'])})"
     rows = [
         ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
@@ -79,8 +89,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                        + (f" (damper slack up to {summary['max_slack']:.3f} m/s)" if summary["max_slack"] > 0 else "")),
         ("success", verdict_text(summary)),
         ("collision-free", collision),
+        ("self-collision-free", f"{self_collision} ({pairs} link pairs checked)" if pairs else "- (no self pairs)"),
         ("max hand error", error),
         ("min clearance", metre(summary["min_clearance"])),
+        ("min self distance", metre(summary["min_self_distance"])),
         ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
         ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
         ("cycle time median / max",
