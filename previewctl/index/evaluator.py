@@ -104,9 +104,10 @@ class Evaluator:
         self.index, self.potential = index or IndexParams(), potential or Potential()
         self.method: Method = method
         self.data = robot.model.createData()
-        self._kinematics = kinematics_reader(robot, self.data)
         self.clearance = Clearance(robot, self.scene)
         self._self = self.clearance.self_clearance
+        # the reader also reads the placements of the joints that carry self geometry, for the self pairs' bounds
+        self._kinematics = kinematics_reader(robot, self.data, self._self.joints)
         self._planar_arm = (
             PlanarArm(robot.planar, robot.structural_ranks, self.index) if robot.planar is not None else None
         )
@@ -159,23 +160,18 @@ class Evaluator:
     def _general(self, Q: Array, t: float) -> Evaluation:
         self.clearance.set_time(t)
         rows: list[list[float]] = []
-        frames: list[Array] = []  # the joint placements that carry self geometry, for the self pairs' bounds
-        obstacles, own = len(self.clearance.pair_links) > 0, len(self._self) > 0
 
         def fill(data: pin.Data) -> None:
-            if obstacles:
-                rows.append(self.clearance.pair_distances(data))
-            if own:
-                frames.extend(self._self.joint_placements(data))
+            rows.append(self.clearance.pair_distances(data))
 
-        kin = kinematics(self.robot, Q, after_each=fill if obstacles or own else None, reader=self._kinematics)
+        measure = fill if len(self.clearance.pair_links) else None
+        kin = kinematics(self.robot, Q, after_each=measure, reader=self._kinematics)
         pairs = np.array(rows).reshape(Q.shape[0], len(self.clearance.pair_links))
         distances = self.clearance.per_link(pairs)
         amsi = amsi_from_kinematics(self.robot, kin, self.index)
-        if not own:
+        if not len(self._self):
             return self._finish(amsi, distances, kin.tip_position)
-        placements = np.array(frames).reshape(Q.shape[0], -1, 4, 4)
-        nearest = self._self.nearest(Q, placements, self.potential.self_influence_distance)
+        nearest = self._self.nearest(Q, kin.joint_placements, self.potential.self_influence_distance)
         return self._finish(amsi, distances, kin.tip_position, nearest)
 
     def _planar(

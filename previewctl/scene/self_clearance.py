@@ -10,9 +10,9 @@ influence distance, a damper's reach); the others keep their bound, which is the
    bounding box), and ``d >= |c_a - c_b| - r_a - r_b``.
 2. The pairs that pass 1: each geometry is also enclosed in a capsule (:func:`~previewctl.robot.geometry.
    enclosing_capsule` of its vertices) and in its 26-DOP (the slab ``n . x <= h(n)`` for each of 26 fixed directions
-   ``n`` of its joint frame, ``h`` its support). The capsule ``[b0, b1] + r_b`` of ``b`` and the DOP of ``a`` are
-   at least ``max_n (min(n . b0, n . b1) - h_a(n)) - r_b`` apart (the slab of ``n`` separates them by that much), and
-   likewise with the roles swapped: the largest of the three bounds counts.
+   ``n`` of its joint frame, ``h`` its support). The capsule ``[b0, b1] + r_b`` of the slimmer geometry ``b`` and the
+   DOP of the other, ``a``, are at least ``max_n (min(n . b0, n . b1) - h_a(n)) - r_b`` apart (the slab of ``n``
+   separates them by that much); the larger of the two bounds counts.
 
 On random Panda configurations (convex hulls, 44 pairs) 1 leaves about 4.5 pairs per configuration, 2 about 1.2,
 of which 0.8 are within 5 cm. numpy's cost per operation dominates at these sizes, hence the cheap first step on
@@ -44,6 +44,7 @@ _DIRECTIONS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k 
                         if (i, j, k) != (0, 0, 0)], dtype=float)
 _DIRECTIONS /= np.linalg.norm(_DIRECTIONS, axis=1)[:, None]
 """The 26 unit directions of the DOP covers (axes, face and body diagonals)."""
+_DIRECTIONS_T = np.ascontiguousarray(_DIRECTIONS.T)
 
 
 @dataclass(frozen=True)
@@ -78,6 +79,8 @@ class SelfClearance:
         geometry: the self geometry model (``robot.self_pairs.geometry``), one collision pair per self pair.
         pair_links: ``(P,)`` index of each pair's link pair in ``robot.self_pairs.links``.
         joint_a, joint_b: ``(P,)`` the joints that carry each pair's two geometries.
+        joints: the joints that carry self geometry, in the order of :meth:`joint_placements` (the placements the
+            bounds read; :func:`~previewctl.kinematics.kinematics_reader` can read them on its pass).
     """
 
     def __init__(self, robot: Robot) -> None:
@@ -91,8 +94,8 @@ class SelfClearance:
         objects = list(self.geometry.geometryObjects)
         parent = np.array([int(g.parentJoint) for g in objects], dtype=np.int64)
         self.joint_a, self.joint_b = parent[self._a], parent[self._b]
-        self._joints = sorted(set(parent.tolist()))  # the joints whose placements the bounds read
-        self._slot = np.array([self._joints.index(j) for j in parent], dtype=np.int64)
+        self.joints: tuple[int, ...] = tuple(sorted(set(parent.tolist())))
+        self._slot = np.array([self.joints.index(j) for j in parent], dtype=np.int64)
         centres, spheres, ends, radii, supports = [], [], [], [], []
         for g in objects:  # the covers, in the frame of the geometry's joint
             points, rho = cover_points(g.geometry)
@@ -107,13 +110,17 @@ class SelfClearance:
             supports.append((points @ _DIRECTIONS.T).max(axis=0) + rho)
         self._centres = np.hstack([np.array(centres).reshape(-1, 3), np.ones((len(objects), 1))])[:, :, None]
         self._reach = np.array(spheres)[self._a] + np.array(spheres)[self._b] + BOUND_SLACK
-        self._ends = np.array(ends).reshape(-1, 2, 3)
-        self._radius = np.array(radii)
-        self._support = np.array(supports).reshape(-1, len(_DIRECTIONS))
+        # step 2 per pair: the DOP of the geometry with the larger capsule, the capsule of the other
+        capsule_radius = np.array(radii)
+        wider = capsule_radius[self._a] >= capsule_radius[self._b]
+        dop, capsule = np.where(wider, self._a, self._b), np.where(wider, self._b, self._a)
+        self._dop_slot, self._capsule_slot = self._slot[dop], self._slot[capsule]
+        self._dop_support = np.array(supports).reshape(-1, len(_DIRECTIONS))[dop]
+        self._capsule_ends = np.array(ends).reshape(-1, 2, 3)[capsule]
+        self._capsule_radius = capsule_radius[capsule] + BOUND_SLACK
         self.data = self._geometry_data(signed=True)
         self._results = list(self.data.distanceResults)
         self._batch = self._geometry_data(signed=False)
-        self._batch_results = list(self._batch.distanceResults)
         self._own = robot.model.createData()  # for configurations given as q
         self._reader: tuple[pin.Data, list[pin.SE3]] | None = None
 
@@ -167,27 +174,21 @@ class SelfClearance:
         references kept for the last ``data`` seen: a lookup through the bindings costs about a microsecond)."""
         if self._reader is None or self._reader[0] is not data:
             placements = list(data.oMi)
-            self._reader = (data, [placements[j] for j in self._joints])
+            self._reader = (data, [placements[j] for j in self.joints])
         return [p.homogeneous for p in self._reader[1]]
 
     def bounds(self, placements: Array) -> Array:
         """Lower bounds ``(B, P)`` [m] of the pair distances from the joint placements ``(B, J, 4, 4)`` (the
         :meth:`joint_placements` of each configuration): step 1 of the module docstring, the spheres."""
-        centres = (placements[:, self._slot] @ self._centres)[:, :, :3, 0]  # (B, G, 3) in the world
+        centres = (placements[:, self._slot, :3] @ self._centres)[..., 0]  # (B, G, 3) in the world
         gap = centres[:, self._a] - centres[:, self._b]
         return np.sqrt(np.einsum("bpk,bpk->bp", gap, gap)) - self._reach
 
     def refine(self, placements: Array, rows: IntArray, pairs: IntArray) -> Array:
         """Lower bounds ``(C,)`` [m] of pair ``pairs[c]`` at configuration ``rows[c]`` from the DOP covers (step 2 of
         the module docstring; combine them with :meth:`bounds` by the larger)."""
-        count = rows.size
-        # both ways at once: a's DOP against b's capsule in the first half, b's against a's in the second
-        dop = np.concatenate([self._a[pairs], self._b[pairs]])
-        capsule = np.concatenate([self._b[pairs], self._a[pairs]])
-        twice = np.concatenate([rows, rows])
-        gap = _dop_gap(placements[twice, self._slot[dop]], placements[twice, self._slot[capsule]],
-                       self._ends[capsule], self._support[dop]) - self._radius[capsule]
-        return np.maximum(gap[:count], gap[count:]) - BOUND_SLACK
+        return _dop_gap(placements[rows, self._dop_slot[pairs]], placements[rows, self._capsule_slot[pairs]],
+                        self._capsule_ends[pairs], self._dop_support[pairs]) - self._capsule_radius[pairs]
 
     def candidates(self, placements: Array, within: float) -> tuple[Array, IntArray, IntArray]:
         """The bounds ``(B, P)`` [m] (steps 1 and 2) and the (configuration, pair) entries still below ``within``
@@ -204,6 +205,8 @@ class SelfClearance:
     def nearest(self, Q: Array, placements: Array, within: float) -> tuple[Array, IntArray]:
         """The smallest pair distance [m] of each configuration ``(B,)`` and its pair ``(B,)`` (``-1`` without
         pairs): exact where below ``within`` [m] (0 in contact: unsigned), else a lower bound at least ``within``.
+        Coal computes a configuration's candidate pairs in the order of their bounds, and skips those whose bound
+        exceeds the nearest distance found so far.
 
         Args:
             Q: ``(B, nq)`` configurations.
@@ -215,14 +218,24 @@ class SelfClearance:
             return np.full(B, np.inf), np.full(B, -1, dtype=np.int64)
         distance, rows, pairs = self.candidates(placements, within)
         if rows.size:
+            # each configuration's candidates nearest first: once a pair is computed, those bounded beyond its
+            # distance cannot be the nearest, and keep their bound
+            bounds = distance[rows, pairs]
+            order = np.lexsort((bounds, rows))
             model, own, geometry, gdata = self.robot.model, self._own, self.geometry, self._batch
-            exact, last = [], -1
-            for b, k in zip(rows.tolist(), pairs.tolist(), strict=True):
+            last, placed, best = -1, -1, within
+            for i, b, k, bound in zip(order.tolist(), rows[order].tolist(), pairs[order].tolist(),
+                                      bounds[order].tolist(), strict=True):
                 if b != last:
+                    last, best = b, within
+                if bound > best:
+                    continue
+                if b != placed:
                     pin.updateGeometryPlacements(model, own, geometry, gdata, Q[b])
-                    last = b
-                exact.append(pin.computeDistance(geometry, gdata, k).min_distance)
-            distance[rows, pairs] = exact
+                    placed = b
+                bounds[i] = pin.computeDistance(geometry, gdata, k).min_distance
+                best = min(best, bounds[i])
+            distance[rows, pairs] = bounds
         pair = np.argmin(distance, axis=1)
         return distance[np.arange(B), pair], pair.astype(np.int64)
 
@@ -266,4 +279,5 @@ def _dop_gap(held: Array, other: Array, ends: Array, support: Array) -> Array:
     ``held``)."""
     world = ends @ other[:, :3, :3].transpose(0, 2, 1) + other[:, None, :3, 3]
     local = (world - held[:, None, :3, 3]) @ held[:, :3, :3]
-    return ((local @ _DIRECTIONS.T).min(axis=1) - support).max(axis=1)
+    along = (local.reshape(-1, 3) @ _DIRECTIONS_T).reshape(-1, 2, _DIRECTIONS_T.shape[1])  # one product for all
+    return (np.minimum(along[:, 0], along[:, 1]) - support).max(axis=1)
