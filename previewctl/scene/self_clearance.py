@@ -99,7 +99,7 @@ class SelfClearance:
         centres, spheres, ends, radii, supports = [], [], [], [], []
         for g in objects:  # the covers, in the frame of the geometry's joint
             points, rho = cover_points(g.geometry)
-            points = np.array([g.placement.act(p) for p in points]).reshape(-1, 3)
+            points = points.reshape(-1, 3) @ g.placement.rotation.T + g.placement.translation
             centre = (points.min(axis=0) + points.max(axis=0)) / 2
             centres.append(centre)
             spheres.append(float(np.linalg.norm(points - centre, axis=1).max()) + rho)
