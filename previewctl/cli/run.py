@@ -77,6 +77,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     def metre(value: float | None) -> str:
         return "-" if value is None else f"{value * 1e3:.2f} mm"
 
+    def self_distance(value: float | None, reach: float) -> str:  # beyond the self influence, only a bound is known
+        return metre(value) if value is None or value < reach else f">= {reach * 1e3:.2f} mm (no self pair nearer)"
+
     collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
                  if summary["collided"] else "yes")
     self_collision = f"NO: {self_collision_text(summary)}" if summary["self_collided"] else "yes"
@@ -92,7 +95,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         ("self-collision-free", f"{self_collision} ({pairs} link pairs checked)" if pairs else "- (no self pairs)"),
         ("max hand error", error),
         ("min clearance", metre(summary["min_clearance"])),
-        ("min self distance", metre(summary["min_self_distance"])),
+        ("min self distance", self_distance(summary["min_self_distance"], scenario.potential.self_influence_distance)),
         ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
         ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
         ("cycle time median / max",

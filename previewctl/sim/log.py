@@ -133,7 +133,8 @@ class RunResult:
         Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``success``,
         ``failure``, ``tolerance`` [m], ``collided``, ``collision_time`` [s], ``collision_link``,
         ``self_collided``, ``self_collision_time`` [s], ``self_collision_links`` (``[a, b]``: the two links that
-        touched first, ``a`` nearer the base), ``min_self_distance`` [m] (``None`` without self pairs),
+        touched first, ``a`` nearer the base), ``min_self_distance`` [m] (exact below the potential's
+        ``self_influence_distance``, a lower bound at least that above it; ``None`` without self pairs),
         ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
         ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``composition``, ``max_slack`` [m/s].
