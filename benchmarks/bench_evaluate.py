@@ -4,12 +4,17 @@ Each figure comes with the ratio to a straightforward per-configuration loop mea
 run: Pinocchio kinematics, ``np.linalg.pinv`` and one ``np.linalg.svd`` per control point, and
 ``pin.computeDistances`` per configuration -- what one writes first.
 
+Then the cost of the self pairs: the time of one ``evaluate`` call on a population of 64, with the robot's self
+pairs and with the same robot stripped of them, the two calls alternated in the same run; percentiles of the
+per-call times (wall and CPU), and the ratio of the medians (target for the Panda with convex hulls: <= 1.5).
+
 Run: ``python benchmarks/bench_evaluate.py [--quick]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -18,6 +23,7 @@ import pinocchio as pin
 import previewctl as pc
 from previewctl.index.amsi import unit_ball_volume
 from previewctl.robot.model import Robot
+from previewctl.robot.self_pairs import SelfPairs
 from previewctl.scene.motion import Static
 
 
@@ -93,6 +99,35 @@ def main() -> None:
             slow = rate(lambda: naive_amsip(robot, ball, Q), 64, repeats)  # noqa: B023
             label = f"{name} {geometry}, population 64, 1 sphere"
             print(f"{label:<44}{fast:>12,.0f}{slow:>10,.0f}{fast / slow:>7.1f}x")
+
+    calls = 60 if args.quick else 400
+    print(f"\nself pairs: one evaluate call, population 64, 1 sphere ({calls} calls each, alternated) [ms]")
+    print(f"{'case':<36}{'without':>16}{'with':>16}{'wall':>9}{'CPU':>17}{'CPU':>9}")
+    print(f"{'':<36}{'p50':>8}{'p90':>8}{'p50':>8}{'p90':>8}{'ratio':>9}{'w/o p50':>9}{'p50':>8}{'ratio':>9}")
+    for name, geometry in (("panda", "convex"), ("panda", "capsules"), ("panda", "mesh"), ("ur5", "convex")):
+        self_pair_cost(name, geometry, ball, calls if geometry != "mesh" else calls // 8, rng)
+
+
+def self_pair_cost(name: str, geometry: str, scene: pc.Scene, calls: int, rng: np.random.Generator) -> None:
+    """Print the per-call times of one population with and without the self pairs, and their ratio."""
+    robot = pc.load_robot(name, geometry=geometry)
+    bare = dataclasses.replace(robot, self_pairs=SelfPairs())
+    Q = robot.random_configurations(rng, 64)
+    with_pairs, without = pc.Evaluator(robot, scene), pc.Evaluator(bare, scene)
+    with_pairs(Q), without(Q)
+    times: dict[str, list[tuple[int, int]]] = {"with": [], "without": []}
+    for _ in range(calls):  # alternated, so that a busy spell of the host hits both alike
+        for key, evaluator in (("without", without), ("with", with_pairs)):
+            wall, cpu = time.perf_counter_ns(), time.process_time_ns()
+            evaluator(Q)
+            times[key].append((time.perf_counter_ns() - wall, time.process_time_ns() - cpu))
+    ms = {key: np.array(value) / 1e6 for key, value in times.items()}
+    p50 = {key: np.percentile(value, 50, axis=0) for key, value in ms.items()}
+    p90 = {key: np.percentile(value, 90, axis=0) for key, value in ms.items()}
+    ratio = p50["with"] / p50["without"]
+    label = f"{name} {geometry}, {len(robot.self_pairs)} self pairs"
+    print(f"{label:<36}{p50['without'][0]:>8.2f}{p90['without'][0]:>8.2f}{p50['with'][0]:>8.2f}{p90['with'][0]:>8.2f}"
+          f"{ratio[0]:>8.2f}x{p50['without'][1]:>9.2f}{p50['with'][1]:>8.2f}{ratio[1]:>8.2f}x")
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ class Kinematics:
         J_task: ``(B, m, nv)`` task Jacobian ``J_n`` (world-aligned, at the tip).
         point_positions: ``(B, k, 3)`` control-point positions [m].
         J_points: ``(B, k, d, nv)`` control-point position Jacobians ``J_i``.
+        joint_placements: ``(B, J, 4, 4)`` world placements of the reader's extra ``joints`` (the self pairs' bounds
+            read them; ``J = 0`` by default).
     """
 
     q: Array
@@ -33,6 +35,7 @@ class Kinematics:
     J_task: Array
     point_positions: Array
     J_points: Array
+    joint_placements: Array
 
 
 # entries of the row-major 3 x 3 matrix -[p]x (so that -[p]x w = w x p), from p[source] * sign
@@ -67,27 +70,36 @@ class FrameKinematics:
         model: the Pinocchio model.
         frame_ids: the frames to follow.
         data: the ``Data`` to fill (one is created if ``None``).
+        joints: joints whose placements are wanted as well (:attr:`joint_placements`), read on the same pass
+            (those that also carry a followed frame are read once).
     """
 
-    def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None) -> None:
+    def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None,
+                 joints: Sequence[int] = ()) -> None:
         self.model = model
         self.data = model.createData() if data is None else data
         parents = [int(model.frames[f].parentJoint) for f in frame_ids]
-        joints = sorted(set(parents))
-        self._slot = np.array([joints.index(j) for j in parents], dtype=int)
+        followed = sorted(set(parents) | {int(j) for j in joints})
+        self._slot = np.array([followed.index(j) for j in parents], dtype=int)
+        self._joint_slot = np.array([followed.index(int(j)) for j in joints], dtype=int)
         offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
         self._moved = np.array([k for k, h in enumerate(offsets) if not np.allclose(h, np.eye(4))], dtype=int)
         self._offset = np.array(offsets).reshape(-1, 4, 4)[self._moved]
         support = support_mask(model, parents)
         self._support = np.repeat(support[:, None, :], 6, axis=1)  # full shape (K, 6, nv): a fast broadcast
-        self._regroup = not np.array_equal(self._slot, np.arange(len(parents)))  # shared or reordered parents
+        self._regroup = not np.array_equal(self._slot, np.arange(len(followed)))  # shared, reordered or extra joints
         self._partial_support = not self._support.all()  # some joint columns do not move some frame
         self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
         placements = list(self.data.oMi)  # element references, read without a lookup each
-        self._placements = [placements[j] for j in joints]
+        # the universe (joint 0, where a fixed base's geometry hangs) is the identity: not read, put in once a batch
+        self._universe = bool(followed) and followed[0] == 0
+        self._placements = [placements[j] for j in followed[self._universe:]]
+        self.joint_placements: Array = np.zeros((0, len(self._joint_slot), 4, 4))
+        """``(B, J, 4, 4)`` the placements of the extra ``joints`` at the last batch."""
 
     def __call__(self, Q: Array, after_each: Callable[[pin.Data], None] | None = None) -> tuple[Array, Array]:
-        """Placements ``(B, K, 4, 4)`` and Jacobians ``(B, K, 6, nv)`` (linear rows first) of the frames.
+        """Placements ``(B, K, 4, 4)`` and Jacobians ``(B, K, 6, nv)`` (linear rows first) of the frames; the extra
+        joints' placements go to :attr:`joint_placements`.
 
         Args:
             Q: ``(B, nq)`` validated configurations.
@@ -105,6 +117,9 @@ class FrameKinematics:
             if after_each is not None:
                 after_each(data)
         frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)
+        if self._universe:
+            frames = np.concatenate([np.broadcast_to(np.eye(4), (B, 1, 4, 4)), frames], axis=1)
+        self.joint_placements = frames[:, self._joint_slot]  # a copy (fancy index), before the offsets below
         if self._regroup:
             frames = frames[:, self._slot]
         if self._moved.size:
@@ -148,12 +163,14 @@ def kinematics(
         jacobians[:, -1, robot.task_rows],
         frames[:, :-1, :3, 3],
         jacobians[:, :-1, robot.point_rows],
+        reader.joint_placements,
     )
 
 
-def kinematics_reader(robot: Robot, data: pin.Data | None = None) -> FrameKinematics:
-    """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip."""
-    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data)
+def kinematics_reader(robot: Robot, data: pin.Data | None = None, joints: Sequence[int] = ()) -> FrameKinematics:
+    """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip (and the placements of
+    ``joints``, :attr:`Kinematics.joint_placements`)."""
+    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data, joints)
 
 
 def hand_placement(robot: Robot, q: Array, data: pin.Data) -> tuple[Array, Array]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import fields
+from pathlib import Path
 
 import coal
 import numpy as np
@@ -253,10 +254,14 @@ def test_s_equals_amsi_without_nearby_obstacles(robot_name: str, request: pytest
     none = evaluate(robot, None, Q)
     far = evaluate(robot, Scene((sphere_at((40.0, 0.0, 0.0), 1.0),)), Q)
     expected = avoidance(robot, Q).amsi
+    # the Panda's own links may be near each other: where they are, the self term lowers S (tested on its own)
+    alone = empty.self_distance >= Potential().self_influence_distance
+    assert alone.all() if robot_name == "planar4" else 0.5 < alone.mean() < 1.0
     for result in (empty, none, far):
-        np.testing.assert_allclose(result.S, result.amsi)
+        np.testing.assert_array_equal(result.self_distance, empty.self_distance)
+        np.testing.assert_allclose(result.S[alone], result.amsi[alone])
         np.testing.assert_allclose(result.amsi, expected, rtol=1e-9)
-        np.testing.assert_array_equal(result.U, 0.0)
+        np.testing.assert_array_equal(result.U[alone], 0.0)
         assert not result.collision.any()
     assert np.all(np.isinf(empty.min_distance))
     assert np.all(far.min_distance > 30.0)
@@ -452,3 +457,85 @@ def test_evaluate_does_not_mutate_input(planar4: Robot) -> None:
     evaluate(planar4, moving_scene(), Q, method="general")
     avoidance(planar4, Q)
     np.testing.assert_array_equal(Q, copy)
+
+
+# ---------------------------------------------------------------------------------------- self pairs
+
+
+def srdf_disabling(path: Path, pairs: list[tuple[str, str]], robot: str) -> Path:
+    lines = "\n".join(f'  <disable_collisions link1="{a}" link2="{b}" reason="test"/>' for a, b in pairs)
+    path.write_text(f'<?xml version="1.0"?>\n<robot name="{robot}">\n{lines}\n</robot>\n')
+    return path
+
+
+def test_self_term_is_zero_beyond_its_influence_distance_and_s_negative_in_self_contact() -> None:
+    potential = Potential()
+    d_s = potential.self_influence_distance
+    assert d_s == 0.05
+    amsi = np.full(7, 1234.5)
+    links = np.full((7, 2), np.inf)
+    self_distance = np.array([np.inf, 1.0, d_s, d_s * 0.999, 0.5 * d_s, 0.0, -0.01])
+    S, U, collision = potential.apply(amsi, links, self_distance)
+    np.testing.assert_array_equal(S[:3], amsi[:3])  # at and beyond d_s: nothing, bit for bit
+    np.testing.assert_array_equal(U[:3], 0.0)
+    ramp = (d_s - self_distance[3:5]) / d_s
+    np.testing.assert_allclose(S[3:5], amsi[3:5] * (1.0 - ramp**2), rtol=1e-12)
+    assert 0.0 < S[4] < S[3] < amsi[3]  # nearer, lower
+    np.testing.assert_array_equal(S[5:], potential.collision_value)  # in contact: negative
+    assert not collision.any()  # the flag is the obstacles'; self-contact is Evaluation.self_collision
+
+
+def test_s_is_negative_exactly_where_the_panda_hits_itself(panda: Robot) -> None:
+    evaluator = Evaluator(panda)
+    Q = panda.random_configurations(np.random.default_rng(21), 300)
+    result = evaluator(Q)
+    assert 0.01 < result.self_collision.mean() < 0.3
+    np.testing.assert_array_equal(result.S < 0, result.self_collision)
+    np.testing.assert_array_equal(result.S[result.self_collision], evaluator.potential.collision_value)
+    far = result.self_distance >= evaluator.potential.self_influence_distance
+    np.testing.assert_array_equal(result.S[far], result.amsi[far])
+    near = ~far & ~result.self_collision
+    assert near.any() and np.all((result.S[near] < result.amsi[near]) & (result.S[near] > 0))
+    assert not result.collision.any()
+    names = {panda.self_pairs.pair_names(int(k)) for k in result.self_pair[result.self_collision]}
+    assert names and names <= set(panda.self_pairs.links)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_an_arm_without_self_pairs_keeps_its_s_bit_for_bit(planar4: Robot, method: str) -> None:
+    """planar4 (its SRDF disables every pair): S is the obstacle potential alone, as before self pairs existed."""
+    scene = Scene((sphere_at((1.0, 0.9, 0.0), 0.3), sphere_at((-1.2, -0.5, 0.0), 0.25, "ball2")))
+    Q = np.random.default_rng(4).uniform(-np.pi, np.pi, (300, 4))
+    result = evaluate(planar4, scene, Q, method=method)
+    S, U, collision = Potential().apply(result.amsi, result.link_distances)  # without a self term
+    np.testing.assert_array_equal(result.collision, collision)
+    np.testing.assert_array_equal(result.S, S)
+    np.testing.assert_array_equal(result.U, U)
+    assert np.all(np.isinf(result.self_distance)) and np.all(result.self_pair == -1)
+    assert not result.self_collision.any()
+
+
+def test_a_panda_whose_pairs_are_all_disabled_keeps_its_s_bit_for_bit(panda: Robot, tmp_path: Path) -> None:
+    links = sorted({link for pair in panda.self_pairs.links for link in pair} | {"panda_link3", "panda_link4"})
+    every = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
+    none = previewctl.load_robot("panda", srdf=srdf_disabling(tmp_path / "none.srdf", every, "panda"))
+    assert len(none.self_pairs) == 0
+    scene = Scene((sphere_at((0.4, 0.2, 0.5), 0.1),))
+    Q = panda.random_configurations(np.random.default_rng(2), 64)
+    result = evaluate(none, scene, Q)
+    S, _, _ = Potential().apply(result.amsi, result.link_distances)
+    np.testing.assert_array_equal(result.S, S)
+
+
+def test_a_planar_arm_with_self_pairs_takes_the_general_path(tmp_path: Path) -> None:
+    adjacent = [("link1", "link2"), ("link2", "link3"), ("link3", "link4")]
+    crossing = previewctl.load_robot("planar4", srdf=srdf_disabling(tmp_path / "adjacent.srdf", adjacent, "planar4"))
+    assert crossing.self_pairs.links == (("link1", "link3"), ("link1", "link4"), ("link2", "link4"))
+    evaluator = Evaluator(crossing)
+    assert crossing.planar is not None and not evaluator.uses_planar_path()
+    with pytest.raises(ParameterError, match=r"without self pairs.*\(3 self pairs\)"):
+        Evaluator(crossing, method="planar")(np.zeros(4))
+    Q = np.random.default_rng(9).uniform(-np.pi, np.pi, (300, 4))
+    result = evaluator(Q)
+    assert result.self_collision.any()  # in one plane, crossing links touch
+    np.testing.assert_array_equal(result.S < 0, result.self_collision)

@@ -581,13 +581,14 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
     (wheel,) = dist.glob("*.whl")
     with zipfile.ZipFile(wheel) as archive:
         assert "previewctl/robots/planar4.urdf" in archive.namelist()
+        assert "previewctl/robots/planar4.srdf" in archive.namelist()  # its self pairs: none
         assert "previewctl/scenarios/paper_planar.toml" in archive.namelist()
         archive.extractall(tmp_path / "site")
     script = (
         "import sys; sys.path.insert(0, sys.argv[1]);"
         "import previewctl.index.load as r;"
         "robot = r.load_robot('planar4');"
-        "print(r.shipped_robots_dir()); print(robot.nq)"
+        "print(r.shipped_robots_dir()); print(robot.nq); print(robot.self_pairs.source.split()[0])"
     )
     run = subprocess.run(
         [sys.executable, "-I", "-c", script, str(tmp_path / "site")],
@@ -597,7 +598,8 @@ def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
         timeout=WHEEL_TIMEOUT,
     )
     assert run.returncode == 0, run.stderr
-    shipped, nq = run.stdout.split()
+    shipped, nq, pairs_from = run.stdout.split()
+    assert pairs_from == "SRDF"  # the wheel's planar4.srdf, not sampled pairs
     assert Path(shipped).resolve() == (tmp_path / "site" / "previewctl" / "robots").resolve()
     assert nq == "4"
 

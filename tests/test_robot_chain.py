@@ -121,9 +121,13 @@ def test_robots_command_lists_arms_and_says_why_the_others_are_not(
     report = json.loads(capsys.readouterr().out)
     arms = [(r["name"], r["dof"], r["tip"]) for r in report["arms"]]
     assert arms == [("planar4", 4, "tip"), ("z1", 6, "gripperStator")]
+    # how many link pairs each arm checks against itself: none for planar4 (its SRDF), sampled for z1
+    assert [(r["self_pairs"], r["self_pairs_from"]) for r in report["arms"]] == [(0, "SRDF"), (14, "sampled")]
     assert [r["name"] for r in report["not_arms"]] == ["hector", "anymal"]
     assert main(["robots", "--all"]) == 0
-    assert "2 more do not load as arms (hector, anymal); --verbose says why" in capsys.readouterr().out
+    listing = capsys.readouterr().out
+    assert "2 more do not load as arms (hector, anymal); --verbose says why" in listing
+    assert "self pairs (link pairs checked)" in listing and "14 (sampled)" in listing
     assert main(["robots", "--all", "--verbose"]) == 0
     out = capsys.readouterr().out
     assert "not arms (2):" in out

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from previewctl.errors import PreviewctlError
 from previewctl.robot.model import Robot
 from previewctl.sim.log import NPZ_NAME, SUMMARY_NAME, RunResult, load_run, load_summary, save_run
 from previewctl.sim.loop import frame_index, simulate
-from previewctl.sim.scenario import Scenario, Timing, scenario_from_dict
+from previewctl.sim.scenario import Scenario, Timing, load_scenario, scenario_from_dict
 from previewctl.viz.drawing import obstacle_outline
 from previewctl.viz.figures import make_figures, strobe_plot
 
@@ -315,3 +316,100 @@ def test_cli_run_exit_code_says_a_run_failed(tmp_path: Path, capsys: pytest.Capt
     assert load_summary(tmp_path / "tight")["failure"] == "hand error"
     assert main(["run", str(scenario), "--tolerance", "-1"]) == 2
     assert "tolerance must be > 0, got -1.0" in capsys.readouterr().err
+
+
+# -------------------------------------------------------------------------------------- self-collision
+
+PANDA_Q0 = [-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785]
+"""The Panda of ``scenarios/panda_crossing.toml``: the hand at (0.45, -0.25, 0.35) m."""
+INTO_ITS_BASE = f"""name = "panda_into_its_base"
+[robot]
+source = "panda"
+q0 = {PANDA_Q0}
+[path]
+waypoints = [[0.45, -0.25, 0.35], [0.05, 0.0, 0.30]]   # the hand back to the base column, 5 cm from its axis
+duration = 4.0
+[controller]
+name = "none"
+execution = "pseudoinverse"
+[timing]
+duration = 4.0
+[output]
+figures = []
+gif = false
+"""
+
+
+@pytest.fixture(scope="module")
+def into_its_base(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Scenario, RunResult]:
+    path = tmp_path_factory.mktemp("self") / "into_its_base.toml"
+    path.write_text(INTO_ITS_BASE)
+    scenario = load_scenario(path)
+    return path, scenario, simulate(scenario)
+
+
+def mesh_contact(robot: Robot, q: np.ndarray, a: str, b: str) -> bool:
+    """Coal's own verdict on the exact meshes of links ``a`` and ``b`` at ``q``."""
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    hit = False
+    for ga in robot.self_pairs.geometry.geometryObjects:
+        for gb in robot.self_pairs.geometry.geometryObjects:
+            names = (robot.model.frames[ga.parentFrame].name, robot.model.frames[gb.parentFrame].name)
+            if names != (a, b):
+                continue
+            pa, pb = data.oMi[ga.parentJoint] * ga.placement, data.oMi[gb.parentJoint] * gb.placement
+            result = coal.CollisionResult()
+            coal.collide(ga.geometry, coal.Transform3s(pa.rotation, pa.translation), gb.geometry,
+                         coal.Transform3s(pb.rotation, pb.translation), coal.CollisionRequest(), result)
+            hit |= result.isCollision()
+    return hit
+
+
+def test_the_hand_driven_into_its_own_base_fails_the_verdict_naming_both_links(
+    into_its_base: tuple[Path, Scenario, RunResult],
+) -> None:
+    _, scenario, run = into_its_base
+    summary = run.summary()
+    assert not summary["success"] and summary["failure"] == "self-collision"
+    assert summary["self_collided"] and not summary["collided"]  # no obstacle in the scene
+    assert summary["self_collision_links"] == ["panda_link1", "panda_leftfinger"]
+    assert summary["self_collision_time"] == pytest.approx(3.82, abs=0.05)
+    assert summary["max_hand_error"] < 1e-3  # the pseudo-inverse tracked the path into the base
+    k = run.self_collision_index
+    assert k == run.steps - 1 and run.self_collision[k] and not run.self_collision[:k].any()
+    assert run.self_distance[k] <= 0.0 and run.S[k] < 0.0 and np.all(run.self_distance[:k] > 0.0)
+    assert run.self_pairs == scenario.exact_robot().self_pairs.links
+    assert run.self_pairs[run.self_pair[k]] == ("panda_link1", "panda_leftfinger")
+    # Coal on the exact meshes agrees: touching at the last step, apart one step before
+    exact = scenario.exact_robot()
+    assert mesh_contact(exact, run.q[k], "panda_link1", "panda_leftfinger")
+    assert not mesh_contact(exact, run.q[k - 1], "panda_link1", "panda_leftfinger")
+
+
+def test_a_self_collided_run_reloads_equal_and_an_older_log_loads_without_self_pairs(
+    into_its_base: tuple[Path, Scenario, RunResult], tmp_path: Path
+) -> None:
+    _, _, run = into_its_base
+    save_run(run, tmp_path / "new")
+    again = load_run(tmp_path / "new")
+    assert again.self_pairs == run.self_pairs and again.summary() == run.summary()
+    np.testing.assert_array_equal(again.self_pair, run.self_pair)
+    with np.load(tmp_path / "new" / NPZ_NAME) as npz:
+        older = {name: npz[name] for name in npz.files if not name.startswith("self_")}
+    (tmp_path / "old").mkdir()
+    np.savez(tmp_path / "old" / NPZ_NAME, **older)
+    old = load_run(tmp_path / "old")
+    assert old.self_pairs == () and not old.self_collision.any() and np.all(np.isinf(old.self_distance))
+    assert old.summary()["self_collided"] is False and old.summary()["min_self_distance"] is None
+
+
+def test_cli_run_prints_the_self_collision_and_exits_3(into_its_base: tuple[Path, Scenario, RunResult],
+                                                        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path, _, _ = into_its_base
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 3
+    out = capsys.readouterr().out
+    assert "self-collision at t = 3.82 s: panda_link1 hits panda_leftfinger" in out
+    assert re.search(r"success\s+NO: self-collision at t = 3\.820 s: panda_link1 hits panda_leftfinger", out)
+    assert re.search(r"collision-free\s+yes", out)  # the obstacle line reads as before
+    assert json.loads((tmp_path / "out" / SUMMARY_NAME).read_text())["failure"] == "self-collision"

@@ -320,6 +320,22 @@ def test_file_errors_carry_the_file_name(tmp_path: Path) -> None:
         load_scenario(latin1)
 
 
+def test_robot_srdf_is_read_relative_to_the_scenario_file(tmp_path: Path) -> None:
+    """``[robot] srdf``: a path relative to the scenario file, as the URDF's; the exact (mesh) robot reads it too."""
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "adjacent.srdf").write_text(
+        '<robot name="planar4"><disable_collisions link1="link1" link2="link2"/>'
+        '<disable_collisions link1="link2" link2="link3"/><disable_collisions link1="link3" link2="link4"/></robot>')
+    text = GOOD.replace('source = "planar4"', 'source = "planar4"\nsrdf = "robots/adjacent.srdf"')
+    scenario = load_scenario(write(tmp_path, text))
+    expected = f"SRDF {tmp_path / 'robots' / 'adjacent.srdf'}"
+    assert scenario.robot_spec.srdf == str(tmp_path / "robots" / "adjacent.srdf")
+    for robot in (scenario.robot, scenario.exact_robot()):
+        assert robot.self_pairs.source == expected and len(robot.self_pairs.links) == 3
+    with pytest.raises(PreviewctlError, match=r"SRDF file '.*robots/missing\.srdf' does not exist"):
+        load_scenario(write(tmp_path, text.replace("adjacent.srdf", "missing.srdf"), "missing.toml"))
+
+
 # ------------------------------------------------------------------------------------- CLI
 
 

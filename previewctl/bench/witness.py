@@ -79,7 +79,8 @@ def witness(scenario: Scenario, settings: SceneSettings) -> Witnessed:
             return Witnessed(False, f"{grid}: {result.verdict()}")
         found = f"{grid}: a collision-free tracking motion exists (best min S {result.best_min_S:.1f})"
         return _followed(scenario, settings, found) if settings.witness_follow else Witnessed(True, found)
-    if bool(evaluator(scenario.q0[None, :], 0.0).collision[0]):
+    at_start = evaluator(scenario.q0[None, :], 0.0)
+    if bool(at_start.collision[0] or at_start.self_collision[0]):
         return Witnessed(False, "q0 collides at t = 0")
     red = redundancy_map(robot)
     worst = math.inf

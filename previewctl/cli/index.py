@@ -71,6 +71,9 @@ def cmd_index(args: argparse.Namespace) -> int:
         "S": float(ev.S[0]),
         "min_distance": finite_or_none(ev.min_distance[0]),
         "collision": bool(ev.collision[0]),
+        "self_distance": finite_or_none(ev.self_distance[0]),
+        "self_pair": list(robot.self_pairs.pair_names(int(ev.self_pair[0]))) if ev.self_pair[0] >= 0 else None,
+        "self_collision": bool(ev.self_collision[0]),
         "length_unit_m": index.length_unit,
     }
     if args.json:
@@ -88,6 +91,13 @@ def cmd_index(args: argparse.Namespace) -> int:
         d = row["min_distance"]
         print(f"{row['link']:<22}{'-' if d is None else f'{d:.4f}':>18}")
     unit = "cm" if np.isclose(index.length_unit, 0.01) else f"{index.length_unit} m"
+    reach = potential.self_influence_distance
+    if report["self_pair"] is not None and report["self_distance"] < reach:
+        a, b = report["self_pair"]
+        print(f"nearest self pair {a} / {b}: {report['self_distance']:.4f} m"
+              f"{' (SELF-COLLISION)' if report['self_collision'] else ''}")
+    elif report["self_pair"] is not None:
+        print(f"no self pair within {reach} m ({len(robot.self_pairs.links)} link pairs checked)")
     print(f"AMSI E = {report['amsi']:.2f} (unit {unit})   U = {report['U']:.2f}   S = {report['S']:.2f}"
           f"   {'COLLISION' if report['collision'] else 'collision-free'}")
     return 0

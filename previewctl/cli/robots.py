@@ -35,16 +35,18 @@ def cmd_robots(args: argparse.Namespace) -> int:
         except PreviewctlError as exc:
             refused.append((name, str(exc)))
             continue
-        rows.append((name, robot.nv, robot.task, robot.tip_frame, len(robot.control_points)))
+        checked = robot.self_pairs
+        rows.append((name, robot.nv, robot.task, robot.tip_frame, len(robot.control_points), len(checked.links),
+                     "SRDF" if checked.source.startswith("SRDF") else "sampled"))
     if args.json:
-        keys = ("name", "dof", "task", "tip", "control_points")
+        keys = ("name", "dof", "task", "tip", "control_points", "self_pairs", "self_pairs_from")
         report = {"arms": [dict(zip(keys, r, strict=True)) for r in rows],
                   "not_arms": [{"name": n, "reason": why} for n, why in refused]}
         print(json.dumps(report, indent=2))
         return 0
-    print(f"{'robot':<28}{'dof':>4}  {'task':<9}{'tip frame':<28}control points")
-    for name, nv, task, tip, k in rows:
-        print(f"{name:<28}{nv:>4}  {task:<9}{tip:<28}{k}")
+    print(f"{'robot':<28}{'dof':>4}  {'task':<9}{'tip frame':<28}{'control points':<16}self pairs (link pairs checked)")
+    for name, nv, task, tip, k, pairs, source in rows:
+        print(f"{name:<28}{nv:>4}  {task:<9}{tip:<28}{k:<16}{pairs} ({source})")
     if refused and args.verbose:
         print(f"\nnot arms ({len(refused)}):")
         for name, why in refused:

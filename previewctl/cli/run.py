@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from previewctl.cli.common import EXIT_FAILED_RUN, EXIT_USAGE, Commands, ProgressBar, seed_value, verdict_text
+from previewctl.cli.common import (
+    EXIT_FAILED_RUN,
+    EXIT_USAGE,
+    Commands,
+    ProgressBar,
+    seed_value,
+    self_collision_text,
+    verdict_text,
+)
 from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
@@ -22,9 +30,9 @@ def add_parser(commands: Commands) -> None:
         "run",
         help="simulate a scenario file and write its log and figures",
         description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
-        "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is collision-free and "
-        "its largest hand error is at most the tolerance. Exit status: 0 success, "
-        f"{EXIT_FAILED_RUN} the run failed (a collision or a hand error over the tolerance), "
+        "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is free of collisions (with "
+        "obstacles and with itself) and its largest hand error is at most the tolerance. Exit status: 0 success, "
+        f"{EXIT_FAILED_RUN} the run failed (a collision, a self-collision or a hand error over the tolerance), "
         f"{EXIT_USAGE} bad input (a start configuration in collision included: refused before anything runs).",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
@@ -72,8 +80,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     def metre(value: float | None) -> str:
         return "-" if value is None else f"{value * 1e3:.2f} mm"
 
+    def self_distance(value: float | None, reach: float) -> str:  # beyond the self influence, only a bound is known
+        return metre(value) if value is None or value < reach else f">= {reach * 1e3:.2f} mm (no self pair nearer)"
+
     collision = (f"NO: collision at t = {summary['collision_time']:.3f} s ({summary['collision_link']})"
                  if summary["collided"] else "yes")
+    self_collision = f"NO: {self_collision_text(summary)}" if summary["self_collided"] else "yes"
+    pairs = len(result.self_pairs)
     error = f"{metre(summary['max_hand_error'])} (tolerance {metre(summary['tolerance'])})"
     rows = [
         ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
@@ -82,8 +95,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                        + (f" (damper slack up to {summary['max_slack']:.3f} m/s)" if summary["max_slack"] > 0 else "")),
         ("success", verdict_text(summary)),
         ("collision-free", collision),
+        ("self-collision-free", f"{self_collision} ({pairs} link pairs checked)" if pairs else "- (no self pairs)"),
         ("max hand error", error),
         ("min clearance", metre(summary["min_clearance"])),
+        ("min self distance", self_distance(summary["min_self_distance"], scenario.potential.self_influence_distance)),
         ("mean / min S", f"{summary['mean_S']:.2f} / {summary['min_S']:.2f}"),
         ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
         ("cycle time median / max",

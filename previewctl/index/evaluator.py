@@ -1,17 +1,24 @@
-"""AMSIP ``S = E + U`` (paper eq. 18): the AMSI lowered by a potential from true obstacle distances.
+"""AMSIP ``S = E + U`` (paper eq. 18): the AMSI lowered by a potential from true obstacle and self distances.
 
 The potential (our design; the paper defers it to its ref. [8]). With ``d_i`` the minimum distance
-[m] between guarded link ``i`` and every obstacle, ``d_0`` the influence distance and ``g`` the gain,
+[m] between guarded link ``i`` and every obstacle, ``d_0`` the influence distance, ``g`` the gain,
+``s`` the smallest distance [m] between the arm's self pairs (:mod:`previewctl.robot.self_pairs`) and ``d_s``
+the self influence distance,
 
-    phi(d) = g * clip((d_0 - d) / d_0, 0, 1)^2                  (0 beyond d_0, g at contact)
-    S      = E * prod_i (1 - phi(d_i))                          when no link collides,
-    S      = collision_value (< 0)                              when some d_i <= 0,
-    U      = S - E <= 0.
+    phi(d; r) = g * clip((r - d) / r, 0, 1)^2                    (0 beyond r, g at contact)
+    S         = E * prod_i (1 - phi(d_i; d_0)) * (1 - phi(s; d_s))  when nothing collides,
+    S         = collision_value (< 0)                          when some d_i <= 0 or s <= 0,
+    U         = S - E <= 0.
 
-So ``S >= 0`` for every collision-free configuration and ``S < 0`` exactly when the arm collides
-(and, in the redundancy search, when the hand target is out of reach). The ramp is C^1 at ``d_0``;
-with ``g = 1`` it brings S continuously to 0 at contact. Defaults suit planar4 in metres: links of
-0.75 m, influence distance 0.15 m.
+So ``S >= 0`` for every collision-free configuration and ``S < 0`` exactly when the arm collides with
+an obstacle or with itself (and, in the redundancy search, when the hand target is out of reach). The
+ramp is C^1 at its influence distance; with ``g = 1`` it brings S continuously to 0 at contact. Defaults
+suit planar4 in metres: links of 0.75 m, influence distance 0.15 m; self influence 0.05 m. An arm without
+self pairs (planar4: its shipped SRDF disables them all) has no self factor at all: its S is bit for bit
+what it was before self pairs existed.
+
+Self distances come from bounding-sphere tests first (:mod:`previewctl.scene.self_clearance`): exact below
+``d_s``, a lower bound (at least ``d_s``) above it.
 """
 
 from __future__ import annotations
@@ -52,6 +59,11 @@ class Evaluation:
         link_distances: ``(B, L)`` per guarded link [m].
         collision: whether some guarded link touches an obstacle.
         tip_position: ``(B, 3)`` hand position [m].
+        self_distance: smallest distance between the arm's self pairs [m]: exact below the potential's
+            ``self_influence_distance``, else a lower bound at least that (``inf`` without self pairs).
+        self_collision: whether two of the arm's own links touch (``self_distance <= 0``).
+        self_pair: index of the nearest self pair in ``robot.self_pairs`` (a geometry pair; its links:
+            ``robot.self_pairs.pair_names(k)``), ``-1`` without self pairs.
     """
 
     S: Array
@@ -61,6 +73,9 @@ class Evaluation:
     link_distances: Array
     collision: NDArray[np.bool_]
     tip_position: Array
+    self_distance: Array
+    self_collision: NDArray[np.bool_]
+    self_pair: NDArray[np.int64]
 
 
 class Evaluator:
@@ -71,8 +86,9 @@ class Evaluator:
         scene: the obstacles.
         index: AMSI parameters.
         potential: potential parameters.
-        method: ``"planar"`` (closed form, vectorised; planar arms with primitive obstacles),
-            ``"general"`` (one Pinocchio pass per configuration) or ``"auto"`` (planar when possible).
+        method: ``"planar"`` (closed form, vectorised; planar arms with primitive obstacles and no self pairs),
+            ``"general"`` (one Pinocchio pass per configuration) or ``"auto"`` (planar when possible). A planar
+            arm with self pairs takes the general path: the closed form has no self distances.
     """
 
     def __init__(
@@ -88,8 +104,10 @@ class Evaluator:
         self.index, self.potential = index or IndexParams(), potential or Potential()
         self.method: Method = method
         self.data = robot.model.createData()
-        self._kinematics = kinematics_reader(robot, self.data)
         self.clearance = Clearance(robot, self.scene)
+        self._self = self.clearance.self_clearance
+        # the reader also reads the placements of the joints that carry self geometry, for the self pairs' bounds
+        self._kinematics = kinematics_reader(robot, self.data, self._self.joints)
         self._planar_arm = (
             PlanarArm(robot.planar, robot.structural_ranks, self.index) if robot.planar is not None else None
         )
@@ -102,7 +120,7 @@ class Evaluator:
 
     def _planar_kernels(self, t: float) -> list[planar_kernels.Kernel] | None:
         """One distance kernel per obstacle at time ``t`` [s], or ``None`` if the planar path cannot serve."""
-        if self.robot.planar is None:
+        if self.robot.planar is None or len(self._self):
             return None
         kernels = []
         for i, obstacle in enumerate(self.scene.obstacles):
@@ -117,9 +135,9 @@ class Evaluator:
         possible = self._planar_kernels(t) is not None
         if self.method == "planar" and not possible:
             raise ParameterError(
-                f"the planar path needs a planar robot and sphere/capsule/box/vertical-cylinder/halfspace "
-                f"obstacles straddling its plane; robot {self.robot.name!r} with obstacles "
-                f"{list(self.scene.names)} does not qualify"
+                f"the planar path needs a planar robot without self pairs and sphere/capsule/box/vertical-cylinder/"
+                f"halfspace obstacles straddling its plane; robot {self.robot.name!r} ({len(self._self)} self "
+                f"pairs) with obstacles {list(self.scene.names)} does not qualify"
             )
         return possible and self.method != "general"
 
@@ -150,7 +168,11 @@ class Evaluator:
         kin = kinematics(self.robot, Q, after_each=measure, reader=self._kinematics)
         pairs = np.array(rows).reshape(Q.shape[0], len(self.clearance.pair_links))
         distances = self.clearance.per_link(pairs)
-        return self._finish(amsi_from_kinematics(self.robot, kin, self.index), distances, kin.tip_position)
+        amsi = amsi_from_kinematics(self.robot, kin, self.index)
+        if not len(self._self):
+            return self._finish(amsi, distances, kin.tip_position)
+        nearest = self._self.nearest(Q, kin.joint_placements, self.potential.self_influence_distance)
+        return self._finish(amsi, distances, kin.tip_position, nearest)
 
     def _planar(
         self, Q: Array, arm: PlanarArm, kernels: list[planar_kernels.Kernel], chunk: int = 16384
@@ -179,10 +201,17 @@ class Evaluator:
         tip[:, :2] = points[:, -1].T
         return self._finish(amsi, distances, tip)
 
-    def _finish(self, amsi: Array, distances: Array, tip: Array) -> Evaluation:
-        S, U, collision = self.potential.apply(amsi, distances)
-        min_distance = distances.min(axis=1) if distances.shape[1] else np.full(len(amsi), np.inf)
-        return Evaluation(S, amsi, U, min_distance, distances, collision, tip)
+    def _finish(
+        self, amsi: Array, distances: Array, tip: Array, nearest: tuple[Array, NDArray[np.int64]] | None = None
+    ) -> Evaluation:
+        """The evaluation from the AMSI, the per-link obstacle distances, the hand and ``nearest`` = (smallest self
+        distance, its pair) per configuration (``None``: no self pairs)."""
+        B = len(amsi)
+        self_distance, self_pair = nearest if nearest is not None else (np.full(B, np.inf), np.full(B, -1))
+        S, U, collision = self.potential.apply(amsi, distances, self_distance if nearest is not None else None)
+        min_distance = distances.min(axis=1) if distances.shape[1] else np.full(B, np.inf)
+        return Evaluation(S, amsi, U, min_distance, distances, collision, tip, self_distance,
+                          np.asarray(self_distance <= 0.0, dtype=bool), np.asarray(self_pair, dtype=np.int64))
 
 
 def evaluate(

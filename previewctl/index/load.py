@@ -14,6 +14,10 @@ example-robot-data name (``"panda"``, ``"ur5"``, ...). Defaults:
 * guarded links: every moving link's clearance enters the potential and the collision check
   (``guarded_links="intermediate"`` leaves out the hand's link, the paper's "intermediate links").
   The hand's links may touch an obstacle marked as the work surface, and nothing else.
+* self pairs: the pairs of the arm's own links checked against each other (:mod:`previewctl.robot.self_pairs`),
+  from ``srdf=`` or the robot's shipped SRDF (``robots/<name>.srdf``, or example-robot-data's next to its URDF),
+  else sampled as MoveIt's setup assistant does. The self geometry is every link with collision geometry, the base
+  and the fingers included, in the same geometry choice.
 * geometry: ``"convex"`` replaces meshes by their convex hulls and cylinders by capsules (a
   conservative cover, 20-40x cheaper distances); ``"capsules"`` replaces every mesh and cylinder by
   its smallest enclosing capsule along the mesh's principal axis (coarser but still conservative:
@@ -35,7 +39,7 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import coal
 import numpy as np
@@ -47,6 +51,7 @@ from previewctl.robot.chain import HandFrames, hand_frames, split_joints
 from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepare_geometry, select_guarded_links
 from previewctl.robot.model import GEOMETRY_CHOICES, TASK_ROWS, Geometry, Robot, Task
 from previewctl.robot.planar import PlanarChain
+from previewctl.robot.self_pairs import SelfPairs, find_self_pairs
 
 _TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
 
@@ -84,6 +89,7 @@ def load_robot(
     geometry: Geometry = "convex",
     package_dirs: Sequence[str | os.PathLike[str]] = (),
     collision_from_visual: bool = False,
+    srdf: str | os.PathLike[str] | None = None,
 ) -> Robot:
     """Load an arm and prepare it for avoidance-manipulability evaluation.
 
@@ -101,9 +107,12 @@ def load_robot(
         package_dirs: folders to resolve ``package://`` mesh paths (URDF files only).
         collision_from_visual: use the ``<visual>`` geometry as collision geometry (an explicit
             opt-in for arms whose URDF has no ``<collision>`` elements).
+        srdf: an SRDF file whose ``<disable_collisions>`` say which link pairs never need checking; default:
+            the robot's shipped SRDF if it has one, else the pairs are sampled (see
+            :mod:`previewctl.robot.self_pairs`).
 
     Raises:
-        RobotLoadError: missing or malformed file, no movable joint, missing mesh, no collision
+        RobotLoadError: missing or malformed file (URDF or SRDF), no movable joint, missing mesh, no collision
             geometry on the moving links (without ``collision_from_visual``).
         UnknownNameError: unknown robot, frame, joint or link name.
     """
@@ -112,8 +121,9 @@ def load_robot(
     if task is not None and task not in TASK_ROWS:
         raise UnknownNameError("task", task, TASK_ROWS)
     kind = pin.GeometryType.VISUAL if collision_from_visual else pin.GeometryType.COLLISION
-    name, model, build = _load_source(source, package_dirs)
-    model, collision_model, hints = _reduce(name, model, lambda full: build(full, kind), lock)
+    found = _load_source(source, package_dirs)
+    name, build = found.name, found.build
+    model, collision_model, hints, locked = _reduce(name, found.model, lambda full: build(full, kind), lock)
     _require_moving_geometry(name, collision_model, collision_from_visual)
     tip_frame = tip if tip is not None else _default_tip(model, hints)
     if not model.existFrame(tip_frame):
@@ -132,11 +142,13 @@ def load_robot(
                              f"{tip_frame!r} moves apart from it (the avoidance index needs one); name them with "
                              f"control_points=[...] or choose another tip")
     links = select_guarded_links(model, collision_model, tip_frame, guarded_links)
+    every_link = collision_model
     collision_model = keep_links(collision_model, model, links)
     robot = Robot(name, model, collision_model, tip_frame, chosen_task, points, links, (), None)
     ranks = _structural_ranks(robot)
     planar = _planar_chain(robot) if chosen_task == "planar" and planar_ok else None
-    return Robot(name, model, collision_model, tip_frame, chosen_task, points, links, ranks, planar)
+    pairs = _self_pairs(found, model, every_link, geometry, locked, srdf)
+    return Robot(name, model, collision_model, tip_frame, chosen_task, points, links, ranks, planar, pairs)
 
 
 # --------------------------------------------------------------------------------------- loading
@@ -147,6 +159,29 @@ GeometryBuilder = Callable[[pin.Model, pin.GeometryType], pin.GeometryModel]
 arm has been accepted)."""
 
 
+class _Found(NamedTuple):
+    """A robot source resolved: its name, full kinematic model, geometry builder, URDF file (if known) and default
+    SRDF (the shipped one, if any)."""
+
+    name: str
+    model: pin.Model
+    build: GeometryBuilder
+    urdf: Path | None = None
+    srdf: Path | None = None
+
+
+def _self_pairs(found: _Found, model: pin.Model, geometry: pin.GeometryModel, kind: Geometry,
+                locked: tuple[str, ...], srdf: str | os.PathLike[str] | None) -> SelfPairs:
+    """The self pairs of the arm: from ``srdf`` (the user's), else the shipped SRDF, else sampled."""
+    chosen = Path(os.fspath(srdf)) if srdf is not None else found.srdf
+    fingerprint = None
+    if found.urdf is not None:
+        with contextlib.suppress(OSError):
+            fingerprint = found.urdf.read_text(encoding="utf-8")
+    return find_self_pairs(model, geometry, kind, srdf=chosen, fingerprint=fingerprint, locked=locked,
+                           shipped_srdf=srdf is None)
+
+
 def load_visual(
     source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]] = ()
 ) -> tuple[pin.Model, pin.GeometryModel]:
@@ -155,60 +190,66 @@ def load_visual(
     ``source`` and ``package_dirs`` are as in :func:`load_robot`; the model has every joint, locked or not.
     A URDF without ``<visual>`` elements gives its collision geometry instead, so the arm can still be drawn.
     """
-    _, model, build = _load_source(source, package_dirs)
+    _, model, build, *_ = _load_source(source, package_dirs)
     visual = build(model, pin.GeometryType.VISUAL)
     if visual.ngeoms == 0:
         visual = build(model, pin.GeometryType.COLLISION)
     return model, visual
 
 
-def _load_source(
-    source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]
-) -> tuple[str, pin.Model, GeometryBuilder]:
-    """Resolve ``source`` to (name, full kinematic model, its geometry-model builder)."""
+def _load_source(source: str | os.PathLike[str], package_dirs: Sequence[str | os.PathLike[str]]) -> _Found:
+    """Resolve ``source`` to its name, full kinematic model, geometry-model builder, URDF and shipped SRDF."""
     if not isinstance(source, (str, os.PathLike)):
         raise RobotLoadError(f"robot source must be a URDF path or a robot name (a string), got {source!r}")
     text = os.fspath(source)
     shipped = shipped_robots_dir() / f"{text}.urdf"
     if shipped.is_file():
-        return text, *_load_urdf(shipped, package_dirs)
+        srdf = shipped.with_suffix(".srdf")
+        return _Found(text, *_load_urdf(shipped, package_dirs), shipped, srdf if srdf.is_file() else None)
     if text.endswith(".urdf") or os.sep in text or Path(text).suffix:
         path = Path(text)
         if not path.is_file():
             raise RobotLoadError(f"URDF file {text!r} does not exist")
-        return path.stem, *_load_urdf(path, package_dirs)
+        return _Found(path.stem, *_load_urdf(path, package_dirs), path)
     known = example_robot_names()
     if text not in known:
         raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
-    return text, *_load_example_robot(text)
+    return _load_example_robot(text)
 
 
-def _load_example_robot(name: str) -> tuple[pin.Model, GeometryBuilder]:
+def _load_example_robot(name: str) -> _Found:
     """An example-robot-data robot: straight from its URDF when its loader does nothing else (no visual
     meshes, no SRDF: 2-20x faster), else through the loader. A floating base its loader adds is left out:
-    it would be locked at the identity anyway."""
+    it would be locked at the identity anyway. Its SRDF, if it ships one, sits next to its URDF
+    (``<package>/<srdf_subpath>/<srdf_filename>``, e.g. ``panda_description/srdf/panda.srdf``)."""
     from example_robot_data import robots_loader
 
     loader = robots_loader.ROBOTS[name]
-    if loader.urdf_filename and "__init__" not in vars(loader):
-        relative = os.path.join(loader.path, loader.urdf_subpath, loader.urdf_filename)
-        try:
-            with contextlib.redirect_stdout(io.StringIO()):
-                root = robots_loader.getModelPath(relative)
-        except OSError as exc:
+    direct = bool(loader.urdf_filename) and "__init__" not in vars(loader)
+    relative = os.path.join(loader.path, loader.urdf_subpath, loader.urdf_filename)
+    root = None
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            root = Path(robots_loader.getModelPath(relative)) if loader.urdf_filename else None
+    except OSError as exc:
+        if direct:
             raise RobotLoadError(f"example-robot-data could not find {name!r}: {exc}") from exc
-        model, collision = _load_urdf(Path(root) / relative, [Path(root).parent.parent])
+    urdf = root / relative if root is not None else None
+    srdf = root / loader.path / loader.srdf_subpath / loader.srdf_filename if root and loader.srdf_filename else None
+    srdf = srdf if srdf is not None and srdf.is_file() else None
+    if direct and urdf is not None and root is not None:
+        model, collision = _load_urdf(urdf, [root.parent.parent])
         if loader.free_flyer and model.nv == 0:
             raise RobotLoadError(f"robot {name!r} is not an arm: its only joint is a floating base (a drone or a "
                                  "mobile base)")
-        return model, collision
+        return _Found(name, model, collision, urdf, srdf)
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             wrapper = robots_loader.load(name)
     except (ImportError, ValueError, RuntimeError, OSError, AssertionError) as exc:
         raise RobotLoadError(f"example-robot-data could not load {name!r}: {exc}") from exc
-    return wrapper.model, lambda model, kind: (
-        wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model)
+    return _Found(name, wrapper.model, lambda model, kind: (
+        wrapper.visual_model if kind == pin.GeometryType.VISUAL else wrapper.collision_model), urdf, srdf)
 
 
 def _require_moving_geometry(name: str, collision: pin.GeometryModel, from_visual: bool) -> None:
@@ -261,9 +302,10 @@ def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tu
 
 def _reduce(
     name: str, model: pin.Model, collision: Callable[[pin.Model], pin.GeometryModel], lock: Sequence[str] | None
-) -> tuple[pin.Model, pin.GeometryModel, HandFrames]:
+) -> tuple[pin.Model, pin.GeometryModel, HandFrames, tuple[str, ...]]:
     """The arm: the model with its floating base and ``lock`` joints (default: the end-effector joints, see
-    :mod:`previewctl.robot.chain`) locked at neutral, and the frames that guide the default hand.
+    :mod:`previewctl.robot.chain`) locked at neutral, the frames that guide the default hand, and the names of
+    the locked joints.
 
     Raises:
         RobotLoadError: no movable joint, not a serial arm, or a model Pinocchio cannot reduce.
@@ -278,12 +320,13 @@ def _reduce(
     split = split_joints(name, model, lock)
     frames = hand_frames(model, split)
     geometry = collision(model)
+    locked = tuple(str(model.names[int(j)]) for j in split.locked)
     if split.locked:
         try:
             model, geometry = pin.buildReducedModel(model, geometry, list(split.locked), pin.neutral(model))
         except (ValueError, RuntimeError) as exc:
             raise RobotLoadError(f"robot {name!r}: locking joints {list(split.locked)} failed: {exc}") from exc
-    return model, geometry, frames
+    return model, geometry, frames, locked
 
 
 def _distinct_frame_names(model: pin.Model) -> None:

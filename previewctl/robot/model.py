@@ -1,4 +1,5 @@
-"""The loaded arm: a reduced Pinocchio model with its task, control points, guarded links and joint facts."""
+"""The loaded arm: a reduced Pinocchio model with its task, control points, guarded links, self pairs and joint
+facts."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from numpy.typing import NDArray
 from previewctl.errors import ConfigurationError
 from previewctl.robot.joints import JointFacts
 from previewctl.robot.planar import PlanarChain
+from previewctl.robot.self_pairs import SelfPairs
 
 Task = Literal["planar", "position", "pose"]
 Geometry = Literal["convex", "capsules", "mesh"]
@@ -37,6 +39,8 @@ class Robot:
         guarded_links: body names whose geometry counts for clearance and collision.
         structural_ranks: generic rank of each control point's avoidance matrix ``M_i``.
         planar: the closed-form chain when the arm is planar, else ``None``.
+        self_pairs: the pairs of its own links checked against each other (link names, the self geometry in the
+            robot's geometry choice, where they come from; :mod:`previewctl.robot.self_pairs`). Empty by default.
         joints: the per-coordinate joint facts of ``model`` (full turns, limits, index maps), computed
             once here; every joint rule reads them.
     """
@@ -50,6 +54,7 @@ class Robot:
     guarded_links: tuple[str, ...]
     structural_ranks: tuple[int, ...]
     planar: PlanarChain | None
+    self_pairs: SelfPairs = field(default_factory=SelfPairs)
     joints: JointFacts = field(init=False, repr=False)
 
     def __post_init__(self) -> None:

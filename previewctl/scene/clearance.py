@@ -1,4 +1,5 @@
-"""Per-link clearance of a batch of configurations against a scene (Coal through Pinocchio's geometry layer)."""
+"""Per-link clearance of a batch of configurations against a scene (Coal through Pinocchio's geometry layer), and
+the arm's clearance from itself (:mod:`previewctl.scene.self_clearance`, reached through :class:`Clearance`)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import pinocchio as pin
 from previewctl.errors import SceneError
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static, planar_fields
+from previewctl.scene.self_clearance import SelfClearance, SelfWitnesses
 from previewctl.scene.shapes import Scene
 from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array, IntArray
@@ -61,7 +63,9 @@ class Clearance:
     """Distances between a robot's guarded geometry and a scene, through one Pinocchio geometry model.
 
     Every guarded link is paired with every obstacle, except the hand's links with a work surface
-    (:class:`~previewctl.scene.shapes.Obstacle`).
+    (:class:`~previewctl.scene.shapes.Obstacle`). The robot's self pairs are measured by :attr:`self_clearance`
+    (their own geometry model: every link with geometry, the base and fingers included); :meth:`self_witnesses`
+    gives their nearest points.
 
     Raises:
         SceneError: an obstacle placed in 2-D around a spatial arm (:func:`check_dimensions`).
@@ -70,6 +74,7 @@ class Clearance:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
         pair_joints: ``(P,)`` Pinocchio joint that carries the robot geometry of each pair.
+        self_clearance: the distances between the robot's own links (``robot.self_pairs``).
     """
 
     def __init__(self, robot: Robot, scene: Scene) -> None:
@@ -119,6 +124,7 @@ class Clearance:
                 request.enable_cached_gjk_guess = False
         self._results = list(self.data.distanceResults)  # element references: no lookup per read
         self._time = 0.0
+        self.self_clearance = SelfClearance(robot)
 
     def set_time(self, t: float) -> None:
         """Move the obstacles to their placements at time ``t`` [s] (static ones never move; nothing to do if
@@ -156,6 +162,13 @@ class Clearance:
         results = [self._results[k] for k in near]
         points = np.array([(r.getNearestPoint1(), r.getNearestPoint2(), r.normal) for r in results]).reshape(-1, 3, 3)
         return near, Witnesses(distance[near], points[:, 0], points[:, 1], points[:, 2])
+
+    def self_witnesses(self, data: pin.Data, within: float = np.inf) -> SelfWitnesses:
+        """The self pairs closer than ``within`` [m] for the joint placements in ``data`` (``data.oMi``, e.g. after
+        ``pin.computeJointJacobians``): pair indices, distances, nearest points ``point_a``, ``point_b`` and the
+        normal from ``a`` to ``b`` (world frame), and the joints ``joint_a``, ``joint_b`` that carry the two
+        geometries (see :class:`~previewctl.scene.self_clearance.SelfWitnesses`)."""
+        return self.self_clearance.witnesses(data, within)
 
     def per_link(self, pair_distances: Array) -> Array:
         """Reduce pair distances ``(B, P)`` to the minimum per guarded link ``(B, L)`` (``inf`` if none)."""

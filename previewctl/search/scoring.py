@@ -20,7 +20,8 @@ class Scored:
         Q: ``(B, nq)`` configurations.
         reachable: ``(B,)`` whether the hand is on the target.
         S: ``(B,)`` AMSIP; ``collision_value`` (< 0) where unreachable.
-        collision: ``(B,)`` whether a reachable configuration collides (False where unreachable).
+        collision: ``(B,)`` whether a reachable configuration collides, with an obstacle or with itself (False where
+            unreachable).
     """
 
     Q: Array
@@ -50,5 +51,5 @@ def score_configurations(evaluator: Evaluator, Q: Array, reachable: NDArray[np.b
     if reachable.any():
         ev = evaluator(Q[reachable], t)
         S[reachable] = ev.S
-        collision[reachable] = ev.collision
+        collision[reachable] = ev.collision | ev.self_collision
     return Scored(Q, reachable, S, collision)

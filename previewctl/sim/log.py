@@ -58,6 +58,12 @@ class RunResult:
         composition: what the controller was made of: its law, imaginary-arm policy, planner, execution and the
             settings it ignored (:class:`~previewctl.control.base.Composition`, as text).
         slack: ``(T,)`` the QP's largest collision-damper slack [m/s] (0 while every damper held).
+        self_distance: ``(T,)`` smallest distance between the arm's self pairs [m] (exact geometry): exact below the
+            potential's ``self_influence_distance``, else a lower bound at least that; 0 in contact; ``inf`` without
+            self pairs.
+        self_collision: ``(T,)`` exact self-collision flag (two of the arm's own links touch).
+        self_pair: ``(T,)`` index in :attr:`self_pairs` of the nearest link pair at each step (``-1``: none).
+        self_pairs: the link pairs ``(a, b)`` the exact check measured (``a`` nearer the base).
     """
 
     scenario: str
@@ -88,6 +94,10 @@ class RunResult:
     execution: str
     composition: str
     slack: Array
+    self_distance: Array
+    self_collision: NDArray[np.bool_]
+    self_pair: NDArray[np.int64]
+    self_pairs: tuple[tuple[str, str], ...]
 
     @property
     def steps(self) -> int:
@@ -101,6 +111,12 @@ class RunResult:
         return int(hits[0]) if hits.size else None
 
     @property
+    def self_collision_index(self) -> int | None:
+        """Index of the first step where the arm touches itself, or ``None``."""
+        hits = np.flatnonzero(self.self_collision)
+        return int(hits[0]) if hits.size else None
+
+    @property
     def error_index(self) -> int | None:
         """Index of the first step whose hand error exceeds :attr:`tolerance`, or ``None``."""
         over = np.flatnonzero(self.hand_error > self.tolerance)
@@ -109,25 +125,31 @@ class RunResult:
     def summary(self) -> dict[str, Any]:
         """Key figures of the run (JSON-ready: floats, ints, bools, strings, ``None``).
 
-        The verdict: ``success`` is true only when the run is collision-free *and* its largest hand
-        error is at most ``tolerance``; ``failure`` names what failed (``"collision"``,
-        ``"hand error"``, or both joined by ``" and "``; ``None`` on success), ``collision_time`` [s]
-        and ``error_time`` [s] when each first failed.
+        The verdict: ``success`` is true only when the run is free of collisions with obstacles *and* with
+        itself, *and* its largest hand error is at most ``tolerance``; ``failure`` names what failed
+        (``"collision"``, ``"self-collision"``, ``"hand error"``, joined by ``" and "``; ``None`` on success),
+        ``collision_time``, ``self_collision_time`` and ``error_time`` [s] when each first failed.
 
         Keys: ``scenario``, ``controller``, ``robot``, ``steps``, ``duration`` [s], ``success``,
         ``failure``, ``tolerance`` [m], ``collided``, ``collision_time`` [s], ``collision_link``,
+        ``self_collided``, ``self_collision_time`` [s], ``self_collision_links`` (``[a, b]``: the two links that
+        touched first, ``a`` nearer the base), ``min_self_distance`` [m] (exact below the potential's
+        ``self_influence_distance``, a lower bound at least that above it; ``None`` without self pairs),
         ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
         ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``composition``, ``max_slack`` [m/s].
         """
-        k, e = self.collision_index, self.error_index
-        failures = [part for part, index in (("collision", k), ("hand error", e)) if index is not None]
+        k, s, e = self.collision_index, self.self_collision_index, self.error_index
+        failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))
+                    if index is not None]
         link = None
         if k is not None:
             link = self.link_names[int(np.argmin(self.link_distances[k]))] if self.link_names else None
         finite = np.isfinite(self.velocity_limits)
         ratio = np.abs(self.qdot[:, finite]) / self.velocity_limits[finite] if finite.any() else np.zeros((1, 1))
         clearance = float(self.min_distance.min()) if self.steps else math.inf
+        self_clearance = float(self.self_distance.min()) if self.steps else math.inf
+        pair = int(self.self_pair[s]) if s is not None else -1
         return {
             "scenario": self.scenario,
             "controller": self.controller,
@@ -140,6 +162,10 @@ class RunResult:
             "collided": k is not None,
             "collision_time": float(self.t[k]) if k is not None else None,
             "collision_link": link,
+            "self_collided": s is not None,
+            "self_collision_time": float(self.t[s]) if s is not None else None,
+            "self_collision_links": list(self.self_pairs[pair]) if pair >= 0 else None,
+            "min_self_distance": self_clearance if math.isfinite(self_clearance) else None,
             "max_hand_error": float(self.hand_error.max()),
             "error_time": float(self.t[e]) if e is not None else None,
             "min_clearance": clearance if math.isfinite(clearance) else None,
@@ -198,25 +224,36 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
     except (OSError, ValueError) as exc:
         raise PreviewctlError(f"cannot read {str(npz_path)!r}: {exc}") from exc
     types = get_type_hints(RunResult)
+    if "t" in stored:
+        stored = {**_without_self_check(stored["t"].shape[0]), **stored}
     missing = sorted(set(types) - set(stored))
     if missing:
         raise PreviewctlError(f"{str(npz_path)!r} lacks {', '.join(missing)}")
     return RunResult(**{name: _restored(stored[name], kind) for name, kind in types.items()})
 
 
+def _without_self_check(steps: int) -> dict[str, NDArray[Any]]:
+    """The self-collision members of a log written before self pairs were checked: none measured."""
+    return {"self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
+            "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str)}
+
+
 def _stored(value: object) -> NDArray[Any]:
-    """A field as an npz member: names as a string array (also when empty), the rest as arrays."""
+    """A field as an npz member: names (and pairs of names, as rows) as a string array (also when empty), the rest
+    as arrays."""
     return np.array(value, dtype=str) if isinstance(value, tuple) else np.asarray(value)
 
 
 def _restored(stored: NDArray[Any], kind: object) -> Any:
-    """An npz member back as a field of declared type ``kind`` (``str``, ``float``, names or an array)."""
+    """An npz member back as a field of declared type ``kind`` (``str``, ``float``, names, name pairs or an array)."""
     if kind is str:
         return str(stored)
     if kind is float:
         return float(stored)
     if kind == tuple[str, ...]:
         return tuple(str(n) for n in stored)
+    if kind == tuple[tuple[str, str], ...]:
+        return tuple((str(a), str(b)) for a, b in stored.reshape(-1, 2))
     return stored
 
 

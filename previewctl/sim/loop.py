@@ -3,11 +3,12 @@
 Before the first step, a start ``q0`` in collision is refused as bad input
 (:func:`~previewctl.sim.start.check_start`: nothing runs, nothing is logged). The loop, with control period ``dt``:
 
-1. at ``t_k = k dt`` the state is checked exactly: AMSIP, per-link clearance and collision from an
-   :class:`~previewctl.index.evaluator.Evaluator` on the robot loaded with ``geometry="mesh"`` (the exact URDF
-   geometry; for planar4 the same cylinders);
-2. a collision stops the run there (unless ``stop_on_collision=False``); the colliding step is the
-   last row of the log, with ``q̇ = 0``;
+1. at ``t_k = k dt`` the state is checked exactly: AMSIP, per-link clearance and collision, the smallest distance
+   between the arm's self pairs and self-collision, from an :class:`~previewctl.index.evaluator.Evaluator` on the
+   robot loaded with ``geometry="mesh"`` (the exact URDF geometry, and its own self pairs; for planar4 the same
+   cylinders, and no self pairs);
+2. a collision, with an obstacle or with itself, stops the run there (unless ``stop_on_collision=False``); the
+   colliding step is the last row of the log, with ``q̇ = 0``;
 3. the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with ``time.perf_counter``; the
    controller runs a GA generation when ``t_k`` enters a new camera frame
    (:class:`~previewctl.control.controller.Controller`);
@@ -38,7 +39,7 @@ from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario, Verdict
 from previewctl.sim.start import check_start
 from previewctl.sim.start import exact_evaluator as exact_evaluator_of
-from previewctl.types import Array
+from previewctl.types import Array, IntArray
 
 __all__ = ["Progress", "frame_index", "simulate"]  # frame_index lives in control.controller now
 
@@ -64,7 +65,8 @@ def simulate(
         controller_name: override of the scenario's controller (one of
             :data:`~previewctl.control.params.CONTROLLER_NAMES`); its parameters stay those of the scenario.
         progress: called as ``progress(fraction, t)`` after every step.
-        stop_on_collision: stop at the first exact collision (default) or log it and go on.
+        stop_on_collision: stop at the first exact collision, with an obstacle or with itself (default), or log it
+            and go on.
         seed: random seed of the controller (default: the scenario's).
         controller: a ready-made, fresh controller (overrides ``controller_name`` and ``seed``; for
             tests and experiments), e.g. from :func:`~previewctl.control.factory.make_controller`.
@@ -94,7 +96,7 @@ def simulate(
     if controller is None:
         controller = make_controller(scenario, name=controller_name, seed=seed)
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
-    log = _Log(scenario.timing.steps + 1, robot, links)
+    log = _Log(scenario.timing.steps + 1, robot, links, exact_evaluator.robot.self_pairs.pair_links)
     count = _run(scenario, controller, exact_evaluator, log, progress, stop_on_collision)
     return RunResult(
         scenario=scenario.name,
@@ -107,6 +109,7 @@ def simulate(
         velocity_limits=effective_velocity_limits(robot, controller.params.velocity_scale),
         execution=controller.execution.name,
         composition=str(controller.describe()),
+        self_pairs=exact_evaluator.robot.self_pairs.links,
         **log.arrays(count),
     )
 
@@ -126,7 +129,7 @@ def _run(
         t = k * dt
         check = exact(q[None, :], t)
         log.record_check(k, t, q, check)
-        if check.collision[0] and stop_on_collision:
+        if (check.collision[0] or check.self_collision[0]) and stop_on_collision:
             _record_collision(log, k, t, scenario, controller, check)
             if progress is not None:
                 progress(1.0, t)
@@ -158,11 +161,13 @@ class _Log:
         rows: the number of rows (steps + 1).
         robot: the arm (its ``nq``, ``nv`` and task).
         links: the guarded links of the exact check.
+        pair_links: for each self pair (geometry pair) of the exact check, its link pair's index.
     """
 
-    def __init__(self, rows: int, robot: Robot, links: tuple[str, ...]) -> None:
+    def __init__(self, rows: int, robot: Robot, links: tuple[str, ...], pair_links: IntArray) -> None:
         nq, nv = robot.nq, robot.nv
         self.rows, self.nq = rows, nq
+        self.pair_links = pair_links
         self.position_rows = 2 if robot.task == "planar" else 3
         self.columns: dict[str, Any] = {
             "t": np.zeros(rows),
@@ -181,6 +186,9 @@ class _Log:
             "frame_due": np.zeros(rows, dtype=bool),
             "velocity_scale": np.ones(rows),
             "slack": np.zeros(rows),
+            "self_distance": np.full(rows, np.inf),
+            "self_collision": np.zeros(rows, dtype=bool),
+            "self_pair": np.full(rows, -1, dtype=np.int64),
         }
         self.targets: Array | None = None  # (rows, p, nq) once the controller reports its imaginary arms
         self.target_S: Array | None = None
@@ -192,6 +200,9 @@ class _Log:
         c["S"][k], c["amsi"][k] = check.S[0], check.amsi[0]
         c["link_distances"][k], c["min_distance"][k] = check.link_distances[0], check.min_distance[0]
         c["collision"][k] = check.collision[0]
+        pair = int(check.self_pair[0])
+        c["self_distance"][k], c["self_collision"][k] = check.self_distance[0], check.self_collision[0]
+        c["self_pair"][k] = self.pair_links[pair] if pair >= 0 else -1
 
     def record_hand(self, k: int, hand: Array, desired: Array) -> None:
         """Row ``k``: the hand, its target and the error over the task's position rows."""

@@ -9,7 +9,7 @@ Example (every section but ``[robot]`` and ``[path]`` is optional)::
     source = "planar4"             # URDF path, shipped robot or example-robot-data name
     q0 = [1.2, 1.8, -2.9, 1.5]     # initial configuration [rad] (or q0_deg = [...] [deg], or "auto":
                                    # the best collision-free one with the hand at the first waypoint)
-    # tip, lock, task, guarded_links, control_points, geometry, package_dirs: see load_robot
+    # tip, lock, task, guarded_links, control_points, geometry, package_dirs, srdf: see load_robot
 
     [path]
     waypoints = [[0.6, 1.4], [0.9, 1.4]]   # [m]; 2 columns for planar arms, 3 otherwise
@@ -229,10 +229,12 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
 
 
 def _robot_spec(table: Any, base: Path) -> RobotSpec:
-    """The robot's spec, with relative URDF and package paths resolved against ``base``."""
+    """The robot's spec, with relative URDF, SRDF and package paths resolved against ``base``."""
     values = table.model_dump(exclude={"q0", "q0_deg"})
     if values["source"].endswith(".urdf") and not Path(values["source"]).is_absolute():
         values["source"] = str(base / values["source"])
+    if values["srdf"] is not None and not Path(values["srdf"]).is_absolute():
+        values["srdf"] = str(base / values["srdf"])
     values["package_dirs"] = tuple(d if Path(d).is_absolute() else str(base / d) for d in values["package_dirs"])
     return RobotSpec(**values)
 

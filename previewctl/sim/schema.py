@@ -64,6 +64,10 @@ FIGURES: tuple[Figure, ...] = get_args(Figure)
 # -------------------------------------------------------------------------------- value objects
 
 
+_SRDF = ("an SRDF file naming the link pairs never checked for self-collision, relative to the scenario file "
+         "(default: the robot's shipped SRDF, else sampled pairs)")
+
+
 @dataclass(frozen=True)
 class RobotSpec:
     """How the scenario's robot was loaded (to reload it, e.g. with exact meshes).
@@ -80,6 +84,7 @@ class RobotSpec:
     geometry: Geometry = "convex"
     package_dirs: tuple[Text, ...] = ()
     collision_from_visual: Flag = False
+    srdf: Annotated[Text, Field(description=_SRDF)] | None = None
 
     def load(self, geometry: Geometry | None = None) -> Robot:
         """Load the robot, optionally with another ``geometry``."""
@@ -93,6 +98,7 @@ class RobotSpec:
             geometry=geometry or self.geometry,
             package_dirs=self.package_dirs,
             collision_from_visual=self.collision_from_visual,
+            srdf=self.srdf,
         )
 
 

@@ -64,6 +64,9 @@ def _collision_text(result: RunResult) -> str:
     summary = result.summary()
     if summary["collided"]:
         return f"collision at t = {summary['collision_time']:.2f} s ({summary['collision_link']})"
+    if summary["self_collided"]:
+        a, b = summary["self_collision_links"]
+        return f"self-collision at t = {summary['self_collision_time']:.2f} s ({a} / {b})"
     return "collision-free"
 
 
