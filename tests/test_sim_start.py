@@ -17,6 +17,7 @@ import previewctl.sim.paper as paper_module
 from previewctl.cli.main import main
 from previewctl.errors import ScenarioError, StartCollisionError
 from previewctl.index.evaluator import Evaluation, Evaluator
+from previewctl.index.load import load_robot
 from previewctl.sim.loop import simulate
 from previewctl.sim.paper import run_paper_scenes
 from previewctl.sim.scenario import Scenario, scenario_from_dict
@@ -158,7 +159,28 @@ def test_the_error_crosses_a_process_boundary_whole(link2_hit: Scenario) -> None
     assert again.pairs == caught.value.pairs
 
 
-# ---------------------------------------------------------------- the hook for self-collision
+# ---------------------------------------------------------------- self-collision at the start
+
+PANDA_FOLDED = [-0.23, 0.026, 1.678, -2.793, 0.456, 0.726, 1.786]
+"""A Panda configuration whose hand is inside ``panda_link2`` (found among seeded random samples, exact meshes)."""
+
+
+def test_a_panda_folded_into_itself_at_the_start_is_refused_naming_both_links(panda_doc: dict[str, Any]) -> None:
+    doc = {**panda_doc, "robot": {"source": "panda", "q0": PANDA_FOLDED}}
+    robot = load_robot("panda")
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, np.array(PANDA_FOLDED))
+    hand = data.oMf[robot.tip_frame_id].translation
+    above = hand + np.array([0.0, 0.0, 0.05])
+    scenario = scenario_from_dict({**doc, "path": {"waypoints": [hand.tolist(), above.tolist()], "duration": 1.0}})
+    named = r"links 'panda_link2' and 'panda_hand' \((touching|penetration [0-9.]+ mm)\); move robot.q0, or start from"
+    with pytest.raises(StartCollisionError, match=named) as caught:
+        simulate(scenario)
+    ((_, _, depth),) = [p for p in caught.value.pairs if p[:2] == ("panda_link2", "panda_hand")]
+    assert depth <= 0.0  # meshes in contact: Coal gives no penetration depth between two meshes, only 0
+
+
+# ---------------------------------------------------------------- the hook for more kinds of pairs
 
 
 def test_a_self_collision_is_named_by_both_links() -> None:

@@ -11,9 +11,9 @@ on, :class:`~previewctl.scene.shapes.Obstacle`).
 :func:`~previewctl.sim.loop.simulate` calls it before its first step, and so do ``previewctl run`` and
 ``previewctl paper`` before they check or create their output folder.
 
-Adding a kind of collision (e.g. self-collision, a link against another link): write a
-:data:`ContactSource` that returns its pairs as :class:`Contact` (``other`` the second link's name,
-``kind="link"``) and add it to :data:`CONTACT_SOURCES`; the refusal and its message follow.
+Two kinds of pairs are looked at (:data:`CONTACT_SOURCES`): a guarded link against an obstacle, and two links of the
+arm against each other (its self pairs). Adding a kind: write a :data:`ContactSource` that returns its pairs as
+:class:`Contact` and add it to :data:`CONTACT_SOURCES`; the refusal and its message follow.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from previewctl.sim.scenario import Scenario
 from previewctl.types import Array
 
 __all__ = ["CONTACT_SOURCES", "Contact", "ContactSource", "check_start", "exact_evaluator", "obstacle_contacts",
-           "start_contacts", "start_message"]
+           "self_contacts", "start_contacts", "start_message"]
 
 START_TIME = 0.0
 """The time [s] of the loop's first step, at which the start is checked."""
@@ -108,8 +108,28 @@ def obstacle_contacts(evaluator: Evaluator, q: Array, t: float, check: Evaluatio
     return list(deepest.values())
 
 
-CONTACT_SOURCES: tuple[ContactSource, ...] = (obstacle_contacts,)
-"""Every kind of pair the start check looks at. The hook for self-collision: add its source here."""
+def self_contacts(evaluator: Evaluator, q: Array, t: float, check: Evaluation) -> list[Contact]:
+    """The self pairs in collision (two links of the arm, ``kind="link"``), one per link pair (its deepest geometry
+    pair), from the self pairs' exact distances (``robot.self_pairs``, on the evaluator's geometry)."""
+    if not check.self_collision[0]:
+        return []
+    robot = evaluator.robot
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    found = evaluator.clearance.self_witnesses(data, within=PATH_AGREEMENT)
+    hand = set(robot.hand_links)
+    deepest: dict[tuple[str, str], Contact] = {}
+    for pair, distance in zip(found.pairs, found.distance, strict=True):
+        if distance > 0.0:
+            continue
+        a, b = robot.self_pairs.pair_names(int(pair))
+        if (a, b) not in deepest or distance < deepest[(a, b)].distance:
+            deepest[(a, b)] = Contact(a, b, float(distance), "link", a in hand or b in hand)
+    return list(deepest.values())
+
+
+CONTACT_SOURCES: tuple[ContactSource, ...] = (obstacle_contacts, self_contacts)
+"""Every kind of pair the start check looks at: the arm against obstacles, and against itself."""
 
 
 def start_contacts(evaluator: Evaluator, q: Array, t: float = START_TIME) -> tuple[Evaluation, list[Contact]]:
