@@ -72,8 +72,9 @@ def test_each_damper_row_matches_finite_differences_of_the_coal_distance(panda: 
     execution = QPExecution(panda, scene, ControllerParams())
     t, eps = 0.6, 1e-6
     rows = execution.dampers(q, t)
-    assert rows.h.size >= 2, "the ball should be within the influence distance of several links"
-    obstacle_rate = rows.h - ControllerParams().damper_gain * (rows.distance - 0.02) / (0.3 - 0.02)  # n·v_obs
+    n = rows.pairs.size  # the obstacle rows come first
+    assert n >= 2, "the ball should be within the influence distance of several links"
+    obstacle_rate = rows.h[:n] - ControllerParams().damper_gain * (rows.distance[:n] - 0.02) / (0.3 - 0.02)  # n·v_obs
     clearance, data = Clearance(panda, scene), panda.model.createData()
 
     def distances(qq: Array, tt: float) -> Array:
@@ -85,7 +86,39 @@ def test_each_damper_row_matches_finite_differences_of_the_coal_distance(panda: 
         plus = distances(pin.integrate(panda.model, q, qdot * eps), t + eps)
         minus = distances(pin.integrate(panda.model, q, -qdot * eps), t - eps)
         rate = (plus - minus) / (2 * eps)
-        np.testing.assert_allclose(rate, obstacle_rate - rows.G @ qdot, atol=1e-5)
+        np.testing.assert_allclose(rate, obstacle_rate - rows.G[:n] @ qdot, atol=1e-5)
+
+
+def test_each_self_damper_row_matches_finite_differences_of_the_coal_distance(panda: Robot) -> None:
+    """A self pair's two links both move: ``ḋ_k = n_kᵀ (J_b − J_a) q̇ = −G_k q̇``, against central differences of
+    Coal's distance between the pair's two geometries, at configurations where some pairs are near each other."""
+    params = ControllerParams()
+    execution = QPExecution(panda, pc.Scene(), params)
+    self_clearance, data = execution.clearance.self_clearance, panda.model.createData()
+    rng = np.random.default_rng(3)
+    checked = 0
+    for q in panda.random_configurations(rng, 200):
+        rows = execution.dampers(q, 0.0)
+        near = (rows.distance > 0.005) & (rows.distance < params.self_influence_distance)
+        if not near.any():
+            continue
+        np.testing.assert_allclose(
+            rows.h, params.damper_gain * (rows.distance - params.self_safety_distance)
+            / (params.self_influence_distance - params.self_safety_distance))
+
+        def distances(qq: Array) -> Array:
+            pin.forwardKinematics(panda.model, data, qq)
+            return self_clearance.pair_distances(data)[rows.self_pairs]
+
+        eps = 1e-6
+        for qdot in rng.normal(0.0, 0.5, (2, panda.nv)):
+            rate = (distances(pin.integrate(panda.model, q, qdot * eps))
+                    - distances(pin.integrate(panda.model, q, -qdot * eps))) / (2 * eps)
+            np.testing.assert_allclose(rate[near], -(rows.G @ qdot)[near], atol=1e-4)
+        checked += int(near.sum())
+        if checked >= 10:
+            break
+    assert checked >= 10, f"only {checked} self rows near enough to check"
 
 
 def test_an_approaching_ball_never_beats_the_damper(panda: Robot) -> None:
@@ -204,6 +237,9 @@ def test_safety_distance_must_be_below_the_influence_distance() -> None:
     with pytest.raises(ParameterError, match=r"safety_distance = 0\.4 \[m\] must be smaller than influence_distance "
                                              r"= 0\.3 \[m\]"):
         ControllerParams(safety_distance=0.4)
+    with pytest.raises(ParameterError, match=r"self_safety_distance = 0\.2 \[m\] must be smaller than "
+                                             r"self_influence_distance = 0\.1 \[m\]"):
+        ControllerParams(self_safety_distance=0.2)
     with pytest.raises(ParameterError, match="execution"):
         dataclasses.replace(ControllerParams(), execution="fast")
 

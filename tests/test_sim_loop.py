@@ -17,7 +17,8 @@ import pytest
 from helpers import planar_doc, tiny_planar_toml
 
 from previewctl.cli.main import main
-from previewctl.errors import PreviewctlError
+from previewctl.control.params import ControllerSpec
+from previewctl.errors import IgnoredSettingWarning, PreviewctlError
 from previewctl.robot.model import Robot
 from previewctl.sim.log import NPZ_NAME, SUMMARY_NAME, RunResult, load_run, load_summary, save_run
 from previewctl.sim.loop import frame_index, simulate
@@ -396,12 +397,26 @@ def test_a_self_collided_run_reloads_equal_and_an_older_log_loads_without_self_p
     assert again.self_pairs == run.self_pairs and again.summary() == run.summary()
     np.testing.assert_array_equal(again.self_pair, run.self_pair)
     with np.load(tmp_path / "new" / NPZ_NAME) as npz:
-        older = {name: npz[name] for name in npz.files if not name.startswith("self_")}
+        older = {name: npz[name] for name in npz.files if not name.startswith("self_") and name != "composition"}
     (tmp_path / "old").mkdir()
     np.savez(tmp_path / "old" / NPZ_NAME, **older)
     old = load_run(tmp_path / "old")
     assert old.self_pairs == () and not old.self_collision.any() and np.all(np.isinf(old.self_distance))
     assert old.summary()["self_collided"] is False and old.summary()["min_self_distance"] is None
+    assert old.composition == "" and run.composition == "none (Tracking), execution pseudoinverse"
+
+
+def test_under_the_qp_the_same_path_stops_short_of_the_base_and_fails_on_hand_error(
+    into_its_base: tuple[Path, Scenario, RunResult],
+) -> None:
+    """The QP's self dampers hold the fingers off panda_link1 (at least ``self_safety_distance`` on the search
+    geometry): the exact check sees no self-collision, and the run fails because the hand left its path."""
+    _, scenario, _ = into_its_base
+    with pytest.warns(IgnoredSettingWarning, match="execution = 'pseudoinverse'"):  # qp runs the QP whatever it says
+        qp = simulate(replace(scenario, controller=ControllerSpec("qp", scenario.controller.params)))
+    summary = qp.summary()
+    assert summary["failure"] == "hand error" and not summary["self_collided"] and qp.steps == scenario.timing.steps + 1
+    assert summary["min_self_distance"] > 0.005 and summary["max_hand_error"] > 0.01
 
 
 def test_cli_run_prints_the_self_collision_and_exits_3(into_its_base: tuple[Path, Scenario, RunResult],

@@ -21,6 +21,7 @@ preview pull, a gradient or zero), the QP is
     minimise    W ‖J (q̇ − q̇_ref)‖² + ‖q̇ − q̇_ref‖²
     subject to  lb ≤ q̇ ≤ ub                                              (joint speed and position limits)
                 n_kᵀ J_k q̇ ≤ ξ (d_k − d_s)/(d_i − d_s) + n_kᵀ v_obs,k      (one damper per pair with d_k < d_i)
+                n_kᵀ (J_a,k − J_b,k) q̇ ≤ ξ (d_k − d_s')/(d_i' − d_s')      (one per self pair with d_k < d_i')
 
 * Weights: the hand term has weight ``W = task_weight`` (10⁴ by default) and the joint term weight 1.
   Both terms vanish at ``q̇ = q̇_ref``, so when ``q̇_ref`` meets every constraint it is the QP's solution:
@@ -34,6 +35,10 @@ preview pull, a gradient or zero), the QP is
   motions translate the obstacles, so all their points share it). The row states
   ``ḋ_k ≥ −ξ (d_k − d_s)/(d_i − d_s)``: inside the influence distance ``d_i`` the approach speed falls
   linearly to zero at the safety distance ``d_s``.
+* Self dampers: a self pair (:mod:`previewctl.robot.self_pairs`) joins two links that both move. With ``p_a``,
+  ``p_b`` its nearest points (fixed on their links) and ``n_k`` the unit normal from ``a`` to ``b``, the distance
+  changes at ``ḋ_k = n_kᵀ (J_b − J_a) q̇``; the row states ``ḋ_k ≥ −ξ (d_k − d_s')/(d_i' − d_s')`` with the self
+  pairs' own ``d_i' = self_influence_distance`` and ``d_s' = self_safety_distance``.
 * Joint limits: the speed limits ``±velocity_scale · q̇max``; within ``limit_margin`` (a fraction of the
   joint's range) of a position limit, the speed towards it shrinks linearly to zero at the limit (the joint
   brakes in time), and never exceeds ``(limit − q)/dt``. A joint held at a limit is *saturated*: the QP
@@ -88,19 +93,22 @@ _ACTIVE_TOL = 1e-9  # [rad/s], [m/s]: a constraint within this of its bound coun
 
 @dataclass(frozen=True)
 class Dampers:
-    """The collision rows ``G q̇ ≤ h`` of one cycle (pairs inside the influence distance only).
+    """The collision rows ``G q̇ ≤ h`` of one cycle (pairs inside their influence distance only): the obstacle
+    pairs' rows first, then the self pairs'.
 
     Attributes:
-        G: ``(R, nv)`` rows ``n_kᵀ J_k``.
+        G: ``(R, nv)`` rows ``n_kᵀ J_k`` (obstacle pairs), ``n_kᵀ (J_a,k − J_b,k)`` (self pairs).
         h: ``(R,)`` bounds [m/s].
         distance: ``(R,)`` the pairs' distances [m].
-        pairs: ``(R,)`` indices of the pairs in the :class:`~previewctl.scene.clearance.Clearance`.
+        pairs: indices of the obstacle rows' pairs in the :class:`~previewctl.scene.clearance.Clearance`.
+        self_pairs: indices of the self rows' pairs in ``robot.self_pairs``.
     """
 
     G: Array
     h: Array
     distance: Array
     pairs: IntArray
+    self_pairs: IntArray
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -162,6 +170,9 @@ class QPExecution:
         self._identity = np.eye(robot.nv)
         self._joint_J = self.data.J  # a view on the C++ buffer, refreshed by every computeJointJacobians
         self._pair_support = support_mask(robot.model, self.clearance.pair_joints)  # the columns that move each pair
+        self_clearance = self.clearance.self_clearance
+        self._self_support = (support_mask(robot.model, self_clearance.joint_a),
+                              support_mask(robot.model, self_clearance.joint_b))
         self._velocities = np.zeros((len(scene.obstacles), 3))
         self._velocity_time = np.nan
 
@@ -178,7 +189,16 @@ class QPExecution:
         obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
         obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
         approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
-        return Dampers(G, approach + obstacle_speed, w.distance, near)
+        if not len(self.robot.self_pairs):
+            return Dampers(G, approach + obstacle_speed, w.distance, near, np.zeros(0, dtype=int))
+        s = self.clearance.self_witnesses(self.data, within=p.self_influence_distance)
+        support_a, support_b = self._self_support[0][s.pairs], self._self_support[1][s.pairs]
+        G_self = ((s.normal @ J[:3] + _cross(s.point_a, s.normal) @ J[3:]) * support_a
+                  - (s.normal @ J[:3] + _cross(s.point_b, s.normal) @ J[3:]) * support_b)
+        h_self = p.damper_gain * (s.distance - p.self_safety_distance) / (p.self_influence_distance
+                                                                          - p.self_safety_distance)
+        return Dampers(np.vstack([G, G_self]), np.concatenate([approach + obstacle_speed, h_self]),
+                       np.concatenate([w.distance, s.distance]), near, s.pairs)
 
     def _obstacle_velocities(self, t: float) -> Array:
         """Velocities [m/s] ``(O, 3)`` of the obstacles at time ``t`` [s]: the motions translate the obstacles (their

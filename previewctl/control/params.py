@@ -183,6 +183,10 @@ class ControllerParams(Checked):
         damper_gain: ``ξ`` [m/s], the approach speed a damper allows at the influence distance.
         influence_distance: ``d_i`` [m], link–obstacle distance below which a damper acts.
         safety_distance: ``d_s`` [m], the distance a damper never lets a link approach closer than; ``< d_i``.
+        self_influence_distance: ``d_i`` of the dampers between two links of the arm (its self pairs) [m]: smaller
+            than the obstacles' ``influence_distance``, since the arm's own links pass close to each other all the
+            time.
+        self_safety_distance: ``d_s`` of the self pairs' dampers [m]; ``< self_influence_distance``.
         limit_gain: ``K_l`` of the joint-limit avoidance in the null space [1/s] (0 disables it).
         limit_margin: within this fraction of a joint's range from either limit [-], the null-space avoidance
             acts and the QP brakes the joint towards the limit.
@@ -219,21 +223,23 @@ class ControllerParams(Checked):
     damper_gain: Positive = 1.0
     influence_distance: Positive = 0.3
     safety_distance: NonNegative = 0.02
+    self_influence_distance: Positive = 0.1
+    self_safety_distance: NonNegative = 0.01
     limit_gain: NonNegative = 1.0
     limit_margin: Annotated[Finite, interval(0, 0.5, "[)")] = 0.1
 
     def check(self) -> None:
-        """``previews`` matches ``weights``, ``safety_distance < influence_distance``, and the GA settings
+        """``previews`` matches ``weights``, each safety distance below its influence distance, and the GA settings
         together obey :class:`~previewctl.search.ga.GAOptions` (no unknown option, ``elite + top_k < population``)."""
         if self.previews is not None and self.previews != len(self.weights):
             raise ParameterError(f"previews = {self.previews} but weights = {list(self.weights)} has "
                                  f"{len(self.weights)}: multi and reach use one preview per weight k_i; give "
                                  f"{self.previews} weights or leave previews out")
-        if self.safety_distance >= self.influence_distance:
-            raise ParameterError(
-                f"safety_distance = {self.safety_distance} [m] must be smaller than influence_distance = "
-                f"{self.influence_distance} [m]"
-            )
+        for safety, influence in (("safety_distance", "influence_distance"),
+                                  ("self_safety_distance", "self_influence_distance")):
+            if getattr(self, safety) >= getattr(self, influence):
+                raise ParameterError(f"{safety} = {getattr(self, safety)} [m] must be smaller than {influence} = "
+                                     f"{getattr(self, influence)} [m]")
         more = validate(GA_SETTINGS, dict(self.ga_options), ParameterError, where="ga_options")
         GAOptions(population=self.population, elite=self.elite, top_k=self.top_k,
                   **more.model_dump(exclude_unset=True))
@@ -252,7 +258,8 @@ class ControllerParams(Checked):
 SETTING_GROUPS: dict[str, tuple[str, ...]] = {
     "tracking": ("feedback_gain", "step_correction", "damping", "singular_threshold", "velocity_scale", "limit_gain",
                  "limit_margin"),
-    "qp": ("task_weight", "slack_weight", "damper_gain", "influence_distance", "safety_distance"),
+    "qp": ("task_weight", "slack_weight", "damper_gain", "influence_distance", "safety_distance",
+           "self_influence_distance", "self_safety_distance"),
     "preview": ("gain", "preview_time", "weights", "previews"),
     "ga": ("population", "elite", "top_k", "ga_options"),
     "peaks": ("track_radius", "settle_frames", "track_neighbours"),

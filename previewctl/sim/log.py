@@ -225,17 +225,19 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
         raise PreviewctlError(f"cannot read {str(npz_path)!r}: {exc}") from exc
     types = get_type_hints(RunResult)
     if "t" in stored:
-        stored = {**_without_self_check(stored["t"].shape[0]), **stored}
+        stored = {**_added_later(stored["t"].shape[0]), **stored}
     missing = sorted(set(types) - set(stored))
     if missing:
         raise PreviewctlError(f"{str(npz_path)!r} lacks {', '.join(missing)}")
     return RunResult(**{name: _restored(stored[name], kind) for name, kind in types.items()})
 
 
-def _without_self_check(steps: int) -> dict[str, NDArray[Any]]:
-    """The self-collision members of a log written before self pairs were checked: none measured."""
+def _added_later(steps: int) -> dict[str, NDArray[Any]]:
+    """The members a log written by an older previewctl lacks, as that run had them: no self pair measured, and
+    no composition recorded (an empty text)."""
     return {"self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
-            "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str)}
+            "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str),
+            "composition": np.array("")}
 
 
 def _stored(value: object) -> NDArray[Any]:
