@@ -164,9 +164,11 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert sorted((r["scene"], r["controller"]) for r in records) == [
         (0, "gradient"), (0, "none"), (1, "gradient"), (1, "none")]
     for r in records:
-        assert r["success_5mm"] == (r["collision_free"] and r["max_hand_error"] < 5e-3)
-        assert r["success_1mm"] == (r["collision_free"] and r["max_hand_error"] < 1e-3)
+        free = r["collision_free"] and r["self_collision_free"]
+        assert r["success_5mm"] == (free and r["max_hand_error"] < 5e-3)
+        assert r["success_1mm"] == (free and r["max_hand_error"] < 1e-3)
         assert (r["collision_time"] is None) == r["collision_free"]
+        assert (r["self_collision_time"] is None) == r["self_collision_free"]
         assert r["cycle_time_median"] <= r["cycle_time_p95"]
     # the workers measured what an in-process run of the same scene measures
     scene = next(s for s in read_records(out / "scenes.jsonl") if s["index"] == 1)
@@ -302,7 +304,8 @@ def test_bench_bad_input_is_one_line_and_exit_2(
 
 def _record(scene: int, controller: str, ok: bool) -> dict[str, object]:
     return {"robot": "planar4", "scene": scene, "seed": 0, "controller": controller, "execution": "qp",
-            "success_1mm": ok, "success_5mm": ok, "collision_free": ok, "max_hand_error": 1e-4,
+            "success_1mm": ok, "success_5mm": ok, "collision_free": ok, "self_collision_free": True,
+            "max_hand_error": 1e-4,
             "cycle_time_median": 1e-3, "cycle_time_p95": 2e-3, "wall_time": 1.0, "cpu_time": 0.5}
 
 
@@ -314,7 +317,9 @@ def test_report_lists_where_preview_beats_and_loses_to_the_qp_baseline(tmp_path:
     text = report.read_text()
     assert "| planar4 | multi | qp | 0:0 | 1:0 |" in text
     assert "| planar4 | multi | pseudoinverse | - | 2:0 |" in text  # against qp, which is always a QP
-    assert "| multi | qp | 3 | 67% | 67% | 67% |" in text and "| qp | qp | 3 | 67% |" in text
+    assert "| multi | qp | 3 | 67% | 67% | 67% | 100% |" in text and "| qp | qp | 3 | 67% |" in text
+    older = [{k: v for k, v in r.items() if k != "self_collision_free"} for r in records]  # recorded before self pairs
+    assert "| multi | qp | 3 | 67% | 67% | 67% | n/a |" in write_report(older, [], tmp_path)[0].read_text()
     assert figure.read_bytes().startswith(b"\x89PNG")
     assert "oracle" not in text
     scene = {"robot": "planar4", "rejected": 1, "oracle_run": {"cpu_time": 1.0},

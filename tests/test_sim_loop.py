@@ -16,6 +16,7 @@ import pinocchio as pin
 import pytest
 from helpers import planar_doc, tiny_planar_toml
 
+from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
 from previewctl.control.params import ControllerSpec
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
@@ -386,6 +387,14 @@ def test_the_hand_driven_into_its_own_base_fails_the_verdict_naming_both_links(
     exact = scenario.exact_robot()
     assert mesh_contact(exact, run.q[k], "panda_link1", "panda_leftfinger")
     assert not mesh_contact(exact, run.q[k - 1], "panda_link1", "panda_leftfinger")
+
+
+def test_the_bench_metrics_count_a_self_collision_as_a_failure(into_its_base: tuple[Path, Scenario, RunResult]) -> None:
+    _, _, run = into_its_base
+    metrics = run_metrics(run)
+    assert metrics["collision_free"] and not metrics["self_collision_free"]
+    assert metrics["self_collision_time"] == pytest.approx(float(run.t[run.self_collision_index]))
+    assert not metrics["success_1mm"] and not metrics["success_5mm"]  # the hand itself stayed within 1 mm
 
 
 def test_a_self_collided_run_reloads_equal_and_an_older_log_loads_without_self_pairs(

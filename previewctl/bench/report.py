@@ -46,19 +46,26 @@ def _groups(records: list[dict[str, Any]]) -> dict[str, dict[tuple[str, str], li
     return {robot: dict(sorted(cells.items(), key=lambda item: _order(item[0]))) for robot, cells in groups.items()}
 
 
+def _self_free(rows: list[dict[str, Any]]) -> str:
+    """The share of runs free of self-collision; ``n/a`` for results recorded before self pairs were checked."""
+    known = [r for r in rows if "self_collision_free" in r]
+    return f"{_rate(known, 'self_collision_free'):.0%}" if known else "n/a"
+
+
 def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]]) -> list[str]:
     scenes = len({(r["scene"], r["seed"]) for rows in cells.values() for r in rows})
     lines = [f"### {robot} ({scenes} scene-seed pairs)", "",
              "| controller | execution | runs | success < 1 mm | success < 5 mm | collision-free | "
-             "median max error [mm] | cycle median / p95 [ms] | CPU per run [s] |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "self-collision-free | median max error [mm] | cycle median / p95 [ms] | CPU per run [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for (controller, execution), rows in cells.items():
         error = statistics.median(r["max_hand_error"] for r in rows) * 1e3
         cycle = statistics.median(r["cycle_time_median"] for r in rows) * 1e3
         p95 = statistics.median(r["cycle_time_p95"] for r in rows) * 1e3
         cost = statistics.mean(r["cpu_time"] for r in rows)
         lines.append(f"| {controller} | {execution} | {len(rows)} | {_rate(rows, 'success_1mm'):.0%} | "
-                     f"{_rate(rows, 'success_5mm'):.0%} | {_rate(rows, 'collision_free'):.0%} | {error:.2f} | "
+                     f"{_rate(rows, 'success_5mm'):.0%} | {_rate(rows, 'collision_free'):.0%} | "
+                     f"{_self_free(rows)} | {error:.2f} | "
                      f"{cycle:.2f} / {p95:.2f} | {cost:.1f} |")
     return [*lines, ""]
 
@@ -112,10 +119,10 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     """Write ``report.md`` and ``success.png`` into ``out`` from the result and scene records."""
     groups = _groups(records)
     lines = ["# previewctl bench", "",
-             f"{len(records)} runs. Success = no collision of a guarded link (exact geometry) AND max hand error "
-             "below the tolerance over the whole run. Each distinct run appears once: `none` under the QP is the `qp` "
-             "baseline, `qp` under the pseudo-inverse is `none`, and a controller that draws no random numbers runs "
-             "for seed 0 only.", ""]
+             f"{len(records)} runs. Success = no collision of a guarded link with an obstacle, no collision of the "
+             "arm with itself (its self pairs; exact geometry) AND max hand error below the tolerance over the whole "
+             "run. `none` runs under the pseudo-inverse only and `qp` under the QP only, and a controller that draws "
+             "no random numbers runs for seed 0 only.", ""]
     for robot in groups:
         drawn = [s for s in scenes if s["robot"] == robot]
         if drawn:
