@@ -74,12 +74,32 @@ def test_frame_steps_sample_the_run_and_keep_the_last_and_extra_steps() -> None:
 def test_contact_is_the_logged_link_against_the_nearest_obstacle(crossing: tuple[Scenario, RunResult]) -> None:
     scenario, result = crossing
     contact = find_contact(result, scenario)
-    assert contact is not None and result.summary()["collision_link"] == "link1" == contact.link
+    assert contact is not None and contact.links == (result.summary()["collision_link"],) == ("link1",)
     assert contact.step == result.steps - 1 and scenario.scene.obstacles[contact.obstacle].name == "ball"
     centre = scenario.scene.obstacles[0].placement(float(result.t[contact.step])).translation
     assert abs(np.linalg.norm(contact.point - centre) - 0.1) < 0.005  # on the ball's surface, at the contact
     free = scenario_from_dict(planar_doc(timing={"duration": 0.2}))
     assert find_contact(simulate(free, "none"), free) is None
+
+
+def test_a_self_collision_marks_both_links(crossing: tuple[Scenario, RunResult], tmp_path: Path) -> None:
+    """A run that hit itself before any obstacle: its first contact is the logged self pair, and the replay turns
+    both links red (and no obstacle) from that step on, with a label naming both."""
+    scenario, result = crossing
+    hit = np.zeros(result.steps, dtype=bool)
+    hit[5:] = True
+    folded = dataclasses.replace(result, self_collision=hit, self_pair=np.where(hit, 0, -1),
+                                 self_pairs=(("link1", "link3"),))
+    contact = find_contact(folded, scenario)
+    assert contact is not None and contact.step == 5 and contact.links == ("link1", "link3")
+    assert contact.obstacle is None and contact.text == f"self-collision at t = {result.t[5]:.2f} s: link1 hits link3"
+    document = recorded(write_replay(folded, tmp_path / "r.html", scenario=scenario, fps=10.0).read_text())
+    red = {m["name"]: t for t, m in messages(document, "SceneNodeUpdateMessage")
+           if tuple(m["updates"].get("color", ())) == RED}
+    at = pytest.approx(float(result.t[5]))  # the contact's step is one of the recorded frames
+    assert red == {"/arm/link1_0/0": at, "/arm/link3_0/0": at}
+    (label,) = [m for _, m in messages(document, "LabelMessage")]
+    assert label["props"]["text"] == contact.text
 
 
 def test_replay_records_arm_ghosts_oracle_obstacles_and_collision(

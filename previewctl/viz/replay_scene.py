@@ -8,8 +8,9 @@
 * the imaginary arms the preview controllers steered toward, as translucent ghosts (from the log's
   ``targets``; hidden where the controller computed none), and the oracle's motion as a translucent
   green arm when its run is given;
-* the first collision: from its step on, the colliding link and the obstacle are red, a red ball marks
-  the contact (the midpoint of the pair's nearest points) and a label names both.
+* the first collision: from its step on, the colliding link and the obstacle (or, when the arm hit itself, both
+  of its links) are red, a red ball marks the contact (the midpoint of the pair's nearest points) and a label
+  names both.
 
 :meth:`ReplayScene.show` puts everything at one step and can go back in time (the live viewer's slider);
 the recorded file (:mod:`previewctl.viz.replay`) calls it step after step.
@@ -54,27 +55,30 @@ RED = tuple(int(COLLISION_COLOUR[i:i + 2], 16) for i in (1, 3, 5))
 
 @dataclass(frozen=True)
 class Contact:
-    """Where a run first collided.
+    """Where a run first collided, with an obstacle or with itself.
 
     Attributes:
         step: index of the first colliding log step.
-        link: the colliding guarded link.
-        obstacle: index of the obstacle it hit in the scene.
+        links: the arm's links that collided: one against an obstacle, two when the arm hit itself.
+        obstacle: index of the obstacle hit in the scene, or ``None`` for a self-collision.
         point: ``(3,)`` contact point [m] (midpoint of the pair's nearest points).
+        text: the label, e.g. ``collision at t = 1.20 s: link1 hits ball``.
     """
 
     step: int
-    link: str
-    obstacle: int
+    links: tuple[str, ...]
+    obstacle: int | None
     point: Array
+    text: str
 
 
 def find_contact(result: RunResult, scenario: Scenario) -> Contact | None:
-    """The first collision of ``result``: its link (from the log) and the obstacle nearest that link.
-
-    Returns ``None`` for a collision-free run.
-    """
-    k, link = result.collision_index, result.summary()["collision_link"]
+    """The first collision of ``result``: with an obstacle, its link (from the log) and the obstacle nearest that
+    link; with itself, the logged self pair. ``None`` for a run free of both."""
+    k, s = result.collision_index, result.self_collision_index
+    if s is not None and (k is None or s < k):
+        return _self_contact(result, scenario, s)
+    link = result.summary()["collision_link"]
     if k is None or link is None or not scenario.scene.obstacles:
         return None
     robot = scenario.robot
@@ -87,7 +91,28 @@ def find_contact(result: RunResult, scenario: Scenario) -> Contact | None:
     best = int(pairs[np.argmin(distances[pairs])]) if pairs.size else int(np.argmin(distances))
     res = clearance.data.distanceResults[best]
     point = 0.5 * (np.asarray(res.getNearestPoint1()) + np.asarray(res.getNearestPoint2()))
-    return Contact(k, link, int(clearance.pair_obstacles[best]), point)
+    obstacle = int(clearance.pair_obstacles[best])
+    text = f"collision at t = {result.t[k]:.2f} s: {link} hits {scenario.scene.obstacles[obstacle].name}"
+    return Contact(k, (link,), obstacle, point, text)
+
+
+def _self_contact(result: RunResult, scenario: Scenario, s: int) -> Contact:
+    """The self-collision at log step ``s``: the logged pair of links, and the midpoint of their nearest points on
+    the scenario robot's geometry."""
+    a, b = result.self_pairs[int(result.self_pair[s])]
+    robot = scenario.robot
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, result.q[s])
+    found = Clearance(robot, scenario.scene).self_witnesses(data)
+    mine = [i for i, pair in enumerate(found.pairs) if robot.self_pairs.pair_names(int(pair)) == (a, b)]
+    if mine:
+        nearest = min(mine, key=lambda i: found.distance[i])
+        point = 0.5 * (found.point_a[nearest] + found.point_b[nearest])
+    else:  # the search geometry does not check this pair: between the two links' origins
+        frames = (robot.model.getFrameId(a), robot.model.getFrameId(b))
+        point = 0.5 * (data.oMf[frames[0]].translation + data.oMf[frames[1]].translation)
+    return Contact(s, (a, b), None, np.asarray(point, dtype=float), f"self-collision at t = {result.t[s]:.2f} s: "
+                   f"{a} hits {b}")
 
 
 def _wxyz(rotation: Array) -> Array:
@@ -186,11 +211,10 @@ class ReplayScene:
         self.oracle_arm = _Arm(scene, meshes, "/oracle", ORACLE_RGBA) if oracle is not None else None
         self._collided = False
         if self.contact is not None:
-            name = scenario.scene.obstacles[self.contact.obstacle].name
-            text = f"collision at t = {result.t[self.contact.step]:.2f} s: {self.contact.link} hits {name}"
             self.marker = scene.add_icosphere("/collision/marker", radius=max(0.02, 0.02 * radius), color=RED,
                                               position=self.contact.point, visible=False)
-            self.label = scene.add_label("/collision/label", text, position=self.contact.point, visible=False)
+            self.label = scene.add_label("/collision/label", self.contact.text, position=self.contact.point,
+                                         visible=False)
 
     def _waypoints(self) -> Array:
         """The desired path's waypoints in 3-D [m] (z = 0 for a planar path): the whole path, reached or not."""
@@ -233,11 +257,12 @@ class ReplayScene:
         self._show_collision(self.contact is not None and k >= self.contact.step)
 
     def _show_collision(self, collided: bool) -> None:
-        """The colliding link and obstacle red, the marker and the label shown (or all back to normal)."""
+        """The colliding links (and obstacle) red, the marker and the label shown (or all back to normal)."""
         if collided == self._collided or self.contact is None:
             return
         self._collided = collided
-        parts = (*self.arm.parts.get(self.contact.link, []), *self.obstacles[self.contact.obstacle].parts)
+        obstacle = self.obstacles[self.contact.obstacle].parts if self.contact.obstacle is not None else ()
+        parts = (*(part for link in self.contact.links for part in self.arm.parts.get(link, [])), *obstacle)
         for handle, rgba in parts:
             handle.color = RED if collided else _rgb255(rgba)
         self.marker.visible = collided
