@@ -1,4 +1,4 @@
-"""The one-way data flow of the README's layout, checked on the import graph of the package.
+"""The one-way data flow of the layout (docs/layout.md), checked on the import graph of the package.
 
 Folders are layers. Every *unit* of the package (a subpackage such as ``robot``, or a top-level module
 such as ``path``) sits in one layer, and a module may import from its own layer and the layers before

@@ -214,7 +214,7 @@ def test_paper_literal_mode_reproduces_the_earlier_numbers() -> None:
 def test_coherent_targets_never_jump_between_peaks_on_the_fitted_scene() -> None:
     """On the real landscape of ``paper_fitted`` (10 s, seed 0) no imaginary arm's target moves more than
     0.5 rad between two frames: the peaks keep their identity while the target and the object move.
-    (The paper-literal rule jumps between near-tied peaks; measured in the README.)"""
+    (The paper-literal rule jumps between near-tied peaks; measured in docs/guide/controllers.md.)"""
     scenario = canonical_scenario("paper_fitted")
     params = dataclasses.replace(scenario.controller.params, imaginary_arms="peaks")
     scenario = dataclasses.replace(scenario, controller=ControllerSpec("multi", params),

@@ -27,7 +27,7 @@ LINK = 0.75  # planar4 link length [m]
 
 
 PROJECTOR_TOLERANCE = 1e-12
-"""``|J_n N| <= 1e-12 max(1, |J_n|)`` and ``|N N - N| <= 1e-12``: what the SVD projector guarantees (README)."""
+"""``|J_n N| <= 1e-12 max(1, |J_n|)`` and ``|N N - N| <= 1e-12``: what the SVD projector guarantees (docs/math.md)."""
 
 
 def check_identities(robot: Robot, Q: Array) -> None:
@@ -271,7 +271,7 @@ def test_volumes_at_stretched_arm_nonnegative_and_area_vanishes(planar4: Robot) 
 
 def test_volumes_at_hand_singularity_depend_on_approach(planar4: Robot) -> None:
     """Documented limitation: where J_n itself loses rank (stretched arm), N = I - J+ J gains a
-    dimension and the limit of V_1, V_3 depends on the direction of approach (README, "Rank")."""
+    dimension and the limit of V_1, V_3 depends on the direction of approach (docs/math.md, "Rank")."""
     directions = (np.array([0.0, 1.0, 0.0, 0.0]), np.array([0.0, 1.0, 1.0, 1.0]))
     limits = [avoidance(planar4, 1e-5 * v).volumes for v in directions]
     assert abs(limits[0][0] - limits[1][0]) > 0.1

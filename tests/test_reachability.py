@@ -475,7 +475,7 @@ def test_planar3_two_end_families(planar3: Robot) -> None:
 def canonical() -> tuple[Scenario, ReachResult]:
     """paper_planar on a 4 deg grid (the figures' maps off): quick enough for a test. Links 1-3 guarded (the
     paper's intermediate links): with the hand's link guarded against the pillar too, this grid's sweep bound
-    finds no motion past t = 49 s (README, the staircase table)."""
+    finds no motion past t = 49 s (docs/results.md, the staircase)."""
     scenario = load_scenario(SCENARIOS / "paper_planar.toml")
     scenario = dataclasses.replace(scenario, robot=load_robot("planar4", guarded_links="intermediate"))
     evaluator = Evaluator(scenario.robot, scenario.scene, scenario.index, scenario.potential)
