@@ -34,7 +34,6 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import xml.etree.ElementTree as ET
 from collections import Counter
 from collections.abc import Callable, Sequence
 from importlib import resources
@@ -52,6 +51,7 @@ from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepar
 from previewctl.robot.model import GEOMETRY_CHOICES, TASK_ROWS, Geometry, Robot, Task
 from previewctl.robot.planar import PlanarChain
 from previewctl.robot.self_pairs import SelfPairs, find_self_pairs
+from previewctl.robot.xml import robot_root
 
 _TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
 
@@ -271,12 +271,7 @@ def _require_moving_geometry(name: str, collision: pin.GeometryModel, from_visua
 
 def _load_urdf(path: Path, package_dirs: Sequence[str | os.PathLike[str]]) -> tuple[pin.Model, GeometryBuilder]:
     """Parse a URDF file with clear errors for malformed XML and missing meshes."""
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise RobotLoadError(f"URDF file {str(path)!r} is not valid XML: {exc}") from exc
-    if root.tag != "robot":
-        raise RobotLoadError(f"URDF file {str(path)!r} has root <{root.tag}>, expected <robot>")
+    root = robot_root(path, "URDF")
     dirs = [str(d) for d in package_dirs] + [str(path.parent), str(path.parent.parent)]
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "")

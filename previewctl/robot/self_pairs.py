@@ -35,7 +35,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +45,7 @@ import pinocchio as pin
 from previewctl.errors import RobotLoadError
 from previewctl.files import atomic_write_bytes
 from previewctl.robot.joints import JointFacts
+from previewctl.robot.xml import robot_root
 from previewctl.types import IntArray
 
 LinkPair = tuple[str, str]
@@ -169,12 +169,7 @@ def _disables_pairs(srdf: Path, shipped: bool, frames: set[str]) -> bool:
     """
     if not srdf.is_file():
         raise RobotLoadError(f"SRDF file {str(srdf)!r} does not exist")
-    try:
-        root = ET.parse(srdf).getroot()
-    except ET.ParseError as exc:
-        raise RobotLoadError(f"SRDF file {str(srdf)!r} is not valid XML: {exc}") from exc
-    if root.tag != "robot":
-        raise RobotLoadError(f"SRDF file {str(srdf)!r} has root <{root.tag}>, expected <robot>")
+    root = robot_root(srdf, "SRDF")
     for element in root.iter("disable_collisions"):
         if not element.get("link1") or not element.get("link2"):
             raise RobotLoadError(f"SRDF file {str(srdf)!r}: a <disable_collisions> lacks link1 or link2")
