@@ -27,6 +27,7 @@ from previewctl.control.params import ControllerParams
 from previewctl.control.peaks import PeakTracker
 from previewctl.control.planner import PeakPlanner
 from previewctl.control.tracking import effective_velocity_limits
+from previewctl.errors import ConfigurationError
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.search.ga import OneStepGA, step_together
@@ -95,7 +96,6 @@ class ImaginaryArms:
 
     Attributes:
         frames: generations run so far.
-        best: ``((p, nq), (p,))`` the searches' best candidates at the last frame.
         times: the preview times [s] of the last frame.
     """
 
@@ -103,11 +103,22 @@ class ImaginaryArms:
                  branches: PlanarRedundancy | None = None) -> None:
         self.robot, self.searches, self.preview_time, self.branches = robot, tuple(searches), preview_time, branches
         self.frames = 0
-        self.best: tuple[Array, Array] | None = None
+        self._best: tuple[Array, Array] | None = None
         self.times: list[float] = []
 
     def __len__(self) -> int:
         return len(self.searches)
+
+    @property
+    def best(self) -> tuple[Array, Array]:
+        """``((p, nq), (p,))``: the searches' best candidates at the last frame, and their AMSIP.
+
+        Raises:
+            ConfigurationError: no generation has run yet (:meth:`update` runs one).
+        """
+        if self._best is None:
+            raise ConfigurationError("the imaginary arms have run no generation yet: update() runs one")
+        return self._best
 
     def update(self, state: ControlState) -> bool:
         """Run one generation of every search if a frame is due (or none has run yet); whether one ran.
@@ -129,7 +140,7 @@ class ImaginaryArms:
         best_q, best_S = np.empty((len(self.searches), self.robot.nq)), np.empty(len(self.searches))
         for i, best in enumerate(step_searches(self.searches, state.path, self.times)):
             best_q[i], best_S[i] = np.asarray(best.q, dtype=float), float(best.S)
-        self.best = (best_q, best_S)
+        self._best = (best_q, best_S)
         self.frames += 1
         return True
 
@@ -166,7 +177,6 @@ class ArgmaxArms:
     def targets(self, state: ControlState) -> Targets:
         """The last frame's best candidates."""
         self.arms.update(state)
-        assert self.arms.best is not None  # update ran at least once
         return Targets(*self.arms.best, ramp=self._ramp)
 
 
@@ -204,7 +214,6 @@ class TrackedPeaks:
     def targets(self, state: ControlState) -> Targets:
         """The tracked peaks, updated when a frame ran."""
         if self.arms.update(state) or self._last is None:
-            assert self.arms.best is not None
             targets, values = self.arms.best[0].copy(), self.arms.best[1].copy()
             for i in range(len(self.arms)):
                 self._track(i, state.q, targets, values)

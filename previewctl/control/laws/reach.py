@@ -62,7 +62,6 @@ class Reach:
                 route.peaks = self.arms.levels()
             else:
                 route.choose(q, t, [(nodes, values) for _, nodes, values in self.arms.levels()], state.path)
-        assert self.arms.best is not None  # update ran at least once
         targets, values = self.arms.best[0].copy(), self.arms.best[1].copy()
         if isinstance(route, PeakPlanner):
             route.update(state, settled=self.arms.frames >= self.params.settle_frames)
