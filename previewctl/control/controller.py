@@ -165,5 +165,5 @@ class Controller:
         return self.dt
 
     def __repr__(self) -> str:
-        return f"Controller({self.name!r}, robot={self.robot.name!r}, frame={self.frame}, dt={self.dt}, " \
-               f"execution={self.execution.name!r})"
+        return (f"Controller({self.name!r}, robot={self.robot.name!r}, frame={self.frame}, dt={self.dt}, "
+                f"execution={self.execution.name!r})")
