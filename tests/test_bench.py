@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ from helpers import planar_doc, pseudoinverse
 
 from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.metrics import run_metrics
+from previewctl.bench.provenance import source_commit
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, settings_hash, simulate_spec
@@ -170,6 +172,7 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
         assert (r["collision_time"] is None) == r["collision_free"]
         assert (r["self_collision_time"] is None) == r["self_collision_free"]
         assert r["cycle_time_median"] <= r["cycle_time_p95"]
+        assert r["commit"] == source_commit() and re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", r["measured"])
     # the workers measured what an in-process run of the same scene measures
     scene = next(s for s in read_records(out / "scenes.jsonl") if s["index"] == 1)
     direct = simulate(pseudoinverse(scenario_from_dict(scene["document"], source=scene["document"]["name"])), "none",
@@ -363,3 +366,30 @@ def test_kept_runs_are_the_first_failures_one_success_and_a_contrast_each_way() 
     assert {key: (a["scene"], b["scene"]) for key, (a, b) in pairs.items()} == {
         ("planar4", True): (1, 1), ("planar4", False): (0, 0)}  # multi wins on 1, loses on 0
     assert {"planar4_001_s0_multi_qp", "planar4_001_s0_qp_qp", "planar4_000_s0_multi_qp"} <= kept
+
+
+def test_report_says_when_at_which_commits_and_on_which_scenes_and_seeds_it_was_measured(tmp_path: Path) -> None:
+    records = [{**_record(scene, "multi", True), "commit": "abc1234", "measured": f"2026-12-0{scene + 1}T10:00:00Z"}
+               for scene in range(3)]
+    records += [{**_record(5, "qp", False), "scene_seed": 4}]  # older: no commit, no date
+    text = write_report(records, [], tmp_path)[0].read_text()
+    assert "measured between 2026-12-01T10:00:00Z and 2026-12-03T10:00:00Z, at commit `abc1234` (3 runs), " \
+           "`unknown` (1 runs) (`unknown`: recorded before runs carried their commit)" in text
+    reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {}` |"
+    assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0) in text
+    assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4) in text
+
+
+def test_published_report_leaves_the_kept_runs_out_and_bad_names_are_refused(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bench"
+    out.mkdir()
+    for record in (_record(0, "qp", False), _record(0, "multi", True)):
+        append_record(out / "results.jsonl", record)
+    site = tmp_path / "docs" / "results" / "bench-planar4.md"
+    assert main(["bench", "--report-only", "--out", str(out), "--publish", str(site)]) == 0
+    assert site.read_text().startswith("# previewctl bench: planar4\n")
+    assert site.with_suffix(".png").read_bytes().startswith(b"\x89PNG")
+    assert "](runs/" not in site.read_text()
+    assert main(["bench", "--report-only", "--out", str(out), "--publish", str(tmp_path / "bench.html")]) == 2
+    assert "--publish takes a Markdown file name ending in .md, got" in capsys.readouterr().err

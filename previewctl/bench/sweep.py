@@ -20,6 +20,7 @@ from typing import Annotated, Any
 from pydantic import Field, InstanceOf
 
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
+from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
 from previewctl.bench.scenes import PROFILES, BenchScene, generate
@@ -127,7 +128,8 @@ def missing_runs(sweep: Sweep, results: Path) -> tuple[list[RunSpec], int]:
 
 def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[str, Any]], None] | None = None,
               on_start: Callable[[int], None] | None = None) -> SweepOutcome:
-    """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``.
+    """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``,
+    stamped with the time it arrived and the client's commit (:func:`~previewctl.bench.provenance.stamp`).
 
     Args:
         sweep: the matrix.
@@ -170,7 +172,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
             fetched[key] = scene_tasks[key].result()
             if key not in known:
                 append_record(scenes_file, {**dataclasses.asdict(fetched[key]), "settings": spec.settings})
-        append_record(results, {**record, "scene_rejected": fetched[key].rejected})
+        append_record(results, {**record, "scene_rejected": fetched[key].rejected, **stamp()})
         outcome.done += 1
         if on_result is not None:
             on_result(record)

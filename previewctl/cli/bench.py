@@ -59,6 +59,9 @@ def add_parser(commands: Commands) -> None:
            f"in OUT/runs/ (default {FAILURES_KEPT}; one success each and the multi-vs-qp contrasts are kept too; "
            "0 keeps nothing)")
     option("--report-only", action="store_true", help="only remake report.md and success.png")
+    option("--publish", metavar="FILE.md", type=Path,
+           help="also write the report, without the kept runs, to FILE.md and its figure beside it (FILE.png): "
+           "how the documentation's results pages are made (e.g. --publish docs/results/bench-panda.md)")
     bench.set_defaults(func=cmd_bench)
 
 
@@ -69,6 +72,8 @@ def _names(text: str | None) -> tuple[str, ...]:
 def cmd_bench(args: argparse.Namespace) -> int:
     """Run the missing runs of the sweep, then write the report; exit 1 if a run failed."""
     out = Path(args.out)
+    if args.publish is not None and args.publish.suffix != ".md":
+        raise ParameterError(f"--publish takes a Markdown file name ending in .md, got {str(args.publish)!r}")
     if not args.report_only:
         if args.keep < 0:
             raise ParameterError(f"--keep must be >= 0, got {args.keep}")
@@ -99,6 +104,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     records = read_records(out / RESULTS_NAME)
     if not records:
         raise ParameterError(f"no results in {out / RESULTS_NAME}: nothing to report")
-    report, figure = write_report(records, read_records(out / SCENES_NAME), out)
+    scenes = read_records(out / SCENES_NAME)
+    report, figure = write_report(records, scenes, out)
     print(f"written {out / RESULTS_NAME}, {report}, {figure}")
+    if args.publish is not None:
+        try:
+            args.publish.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ParameterError(f"--publish: cannot create the folder {str(args.publish.parent)!r}: {exc}") from exc
+        published = write_report(records, scenes, args.publish.parent, report_name=args.publish.name,
+                                 figure_name=args.publish.with_suffix(".png").name, kept=False)
+        print(f"published {published[0]}, {published[1]}")
     return 1 if not args.report_only and outcome.failed else 0
