@@ -12,7 +12,8 @@ from typing import Any
 
 from tqdm import tqdm
 
-from previewctl.cli.common import Commands, seed_value, verdict_text
+from previewctl.bench.paper_report import write_paper_report
+from previewctl.cli.common import Commands, seed_value
 from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
@@ -25,6 +26,7 @@ from previewctl.sim.paper import (
     run_paper_scenes,
 )
 from previewctl.sim.scenario import Scenario
+from previewctl.sim.verdict import verdict_text
 from previewctl.viz.figures import make_figures
 from previewctl.viz.replay import REPLAY_NAME, write_replay
 
@@ -58,6 +60,10 @@ def add_parser(commands: Commands) -> None:
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
     paper.add_argument("--no-replay", action="store_true",
                        help=f"do not write the 3-D replays (OUT/<scene>/<label>/{REPLAY_NAME})")
+    paper.add_argument("--publish", metavar="FILE.md", type=Path,
+                       help="also write the tables, with the date, commit and seed, as Markdown to FILE.md: how the "
+                       "documentation's results page of the paper's scenes is made "
+                       "(e.g. --publish docs/results/paper.md)")
     paper.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                        help="runs in parallel, one process each (default: the number of cores)")
     paper.set_defaults(func=cmd_paper)
@@ -102,6 +108,8 @@ def cmd_paper(args: argparse.Namespace) -> int:
     scenes = _names(args.scenes, CANONICAL_SCENES, "--scenes")
     if args.jobs < 1:
         raise PreviewctlError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.publish is not None and args.publish.suffix != ".md":
+        raise PreviewctlError(f"--publish takes a Markdown file name ending in .md, got {str(args.publish)!r}")
     out = Path(args.out)
     plan = paper_plan(scenes, names, executions)
     bar = tqdm(total=len(plan), desc="paper runs", unit="run", file=sys.stderr, ascii=".#")
@@ -125,4 +133,6 @@ def cmd_paper(args: argparse.Namespace) -> int:
     for scene, summaries in results.items():
         _table(scene, summaries, out)
     print(f"written {out / 'summary.json'} (and {out}/<scene>/summary.json)")
+    if args.publish is not None:
+        print(f"published {write_paper_report(results, args.publish, args.seed)}")
     return 0

@@ -11,8 +11,6 @@ from previewctl.cli.common import (
     Commands,
     ProgressBar,
     seed_value,
-    self_collision_text,
-    verdict_text,
 )
 from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.files import atomic_folder, check_output_folder
@@ -20,6 +18,7 @@ from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.sim.start import check_start, exact_evaluator
+from previewctl.sim.verdict import self_collision_text, verdict_text
 from previewctl.viz.figures import make_figures
 from previewctl.viz.replay import REPLAY_NAME, write_replay
 
