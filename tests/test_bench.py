@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -393,3 +394,15 @@ def test_published_report_leaves_the_kept_runs_out_and_bad_names_are_refused(tmp
     assert "](runs/" not in site.read_text()
     assert main(["bench", "--report-only", "--out", str(out), "--publish", str(tmp_path / "bench.html")]) == 2
     assert "--publish takes a Markdown file name ending in .md, got" in capsys.readouterr().err
+
+
+def test_a_bench_run_does_not_warn_about_the_scene_table_it_ignores_but_logs_it() -> None:
+    """Every controller of a scene gets the profile's one ``[controller]`` table: a setting one of them does not read
+    is recorded in its composition, not warned about once per run."""
+    document = planar_doc(controller={"name": "none", "plan_window": 6.0}, timing={"duration": 0.5})
+    scene = BenchScene("planar4", 0, 0, document, rejected=0, witness="")
+    spec = RunSpec("planar4", 0, 0, "none", "pseudoinverse", settings="test")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, result = simulate_spec(spec, scene)
+    assert "ignored: plan_window = 6.0" in result.composition

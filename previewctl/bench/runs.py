@@ -13,6 +13,7 @@ import functools
 import hashlib
 import json
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -22,6 +23,7 @@ from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
 from previewctl.control.params import ControllerSpec, ExecutionMode
+from previewctl.errors import IgnoredSettingWarning
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.log import RunResult
@@ -92,7 +94,9 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     params = dataclasses.replace(base.controller.params, execution=execution)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
-    controller = make_controller(scenario, seed=spec.seed)
+    with warnings.catch_warnings():  # every controller gets the profile's one table; its composition logs the rest
+        warnings.simplefilter("ignore", IgnoredSettingWarning)
+        controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
     return scenario, simulate(scenario, controller=controller, exact_evaluator=exact)
