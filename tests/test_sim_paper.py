@@ -59,7 +59,7 @@ def test_paper_controllers_use_the_paper_parameters() -> None:
 def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Both scenes, fitted first; on the staircase the paper's eq. 19 keeps the elbow-right family and hits the trap."""
     out = tmp_path / "paper"
-    argv = ["paper", "--controllers", "none", "--executions", "pseudoinverse", "--out", str(out), "--no-gif"]
+    argv = ["paper", "--controller", "none", "--execution", "pseudoinverse", "--out", str(out), "--no-gif"]
     assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert list(summary) == list(CANONICAL_SCENES) == ["paper_fitted", "paper_planar"]
