@@ -195,9 +195,10 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         assert main([*common, "--scheduler", cluster.scheduler_address, "--controller", "none,gradient,single",
-                     "--keep", "0"]) == 0
-    printed = capsys.readouterr().out
-    assert "2 runs done" in printed and "4 already in" in printed
+                     "--keep", "0", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)  # --json: the whole of stdout is one document
+    assert {k: printed[k] for k in ("planned", "done", "skipped", "failed", "records")} == {
+        "planned": 6, "done": 2, "skipped": 4, "failed": [], "records": 6}
     again = read_records(out / "results.jsonl")
     assert len(again) == 6 and again[:4] == records
     assert sorted(r["scene"] for r in again[4:]) == [0, 1] and {r["controller"] for r in again[4:]} == {"single"}
