@@ -160,8 +160,8 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
 ) -> None:
     monkeypatch.setenv("PYTHONPATH", str(ROOT))  # the worker processes import this worktree's previewctl
     out = tmp_path / "bench"
-    common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--out", str(out)]
-    assert main([*common, "--workers", "1", "--controllers", "none,gradient", "--keep", "1"]) == 0  # a local cluster
+    common = ["bench", "--scenes", "2", "--duration", "3", "--execution", "pseudoinverse", "--out", str(out)]
+    assert main([*common, "--workers", "1", "--controller", "none,gradient", "--keep", "1"]) == 0  # a local cluster
     assert "4 runs done" in capsys.readouterr().out
     records = read_records(out / "results.jsonl")
     assert sorted((r["scene"], r["controller"]) for r in records) == [
@@ -198,10 +198,11 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert f"[replay.html](runs/{kept[0]}/replay.html)" in (out / "report.md").read_text()
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single",
-                     "--keep", "0"]) == 0
-    printed = capsys.readouterr().out
-    assert "2 runs done" in printed and "4 already in" in printed
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--controller", "none,gradient,single",
+                     "--keep", "0", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)  # --json: the whole of stdout is one document
+    assert {k: printed[k] for k in ("planned", "done", "skipped", "failed", "records")} == {
+        "planned": 6, "done": 2, "skipped": 4, "failed": [], "records": 6}
     again = read_records(out / "results.jsonl")
     assert len(again) == 6 and again[:4] == records
     assert sorted(r["scene"] for r in again[4:]) == [0, 1] and {r["controller"] for r in again[4:]} == {"single"}
@@ -211,7 +212,9 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
 @pytest.mark.parametrize(("kwargs", "error", "message"), [
     ({"scenes": 0}, ParameterError, r"^scenes must be >= 1, got 0$"),
     ({"scenes": 2.5}, ParameterError, r"^scenes must be an integer, got 2\.5; valid: integers >= 1$"),
-    ({"seeds": True}, ParameterError, r"^seeds must be an integer, got True; valid: integers >= 1$"),
+    ({"seeds": 3}, ParameterError, r"^seeds must be a list of integers, got 3$"),
+    ({"seeds": (-1,)}, ParameterError, r"^seeds\[0\] must be >= 0, got -1$"),
+    ({"seeds": ()}, ParameterError, r"^give at least one controller seed, e.g. seeds=\(0,\)$"),
     ({"scene_seed": -1}, ParameterError, r"^scene_seed must be >= 0, got -1$"),
     ({"scene_seed": 1.5}, ParameterError, r"^scene_seed must be an integer, got 1\.5; valid: integers >= 0$"),
     ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7$"),
@@ -245,9 +248,12 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
     assert [(s.controller, s.execution) for s in Sweep(controllers=("none", "qp"), executions=("qp",)).runs()] \
         == [("qp", "qp")] * 10
     # with seeds, only the controllers that draw random numbers run again
-    seeded = Sweep(scenes=1, seeds=3, controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
+    seeded = Sweep(scenes=1, seeds=(0, 1, 2), controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
     assert [(s.seed, s.controller) for s in seeded] == [
         (0, "qp"), (0, "multi"), (0, "oracle"), (1, "multi"), (2, "multi")]
+    # seeds without 0: the others still run once, as seed 0
+    seeded = Sweep(scenes=1, seeds=(4, 2), controllers=("qp", "multi"), executions=("qp",)).runs()
+    assert [(s.seed, s.controller) for s in seeded] == [(0, "qp"), (4, "multi"), (2, "multi")]
 
 
 @pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "single"])
@@ -289,10 +295,9 @@ def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> 
 @pytest.mark.parametrize(("argv", "message"), [
     (["--robot", "pandas"], "unknown robot 'pandas'; valid: planar4, panda, xarm7"),
     (["--scenes", "0"], "scenes must be >= 1, got 0"),
-    (["--seeds", "0"], "seeds must be >= 1, got 0"),
     (["--scene-seed", "-2"], "scene_seed must be >= 0, got -2"),
-    (["--controllers", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
-    (["--executions", "lp"], "unknown execution mode 'lp'; valid: "),
+    (["--controller", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
+    (["--execution", "lp"], "unknown execution mode 'lp'; valid: "),
 ])
 def test_bench_bad_input_is_one_line_and_exit_2(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]

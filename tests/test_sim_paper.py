@@ -61,7 +61,7 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
     """Both scenes, fitted first; on the staircase the paper's eq. 19 keeps the elbow-right family and hits the trap."""
     out = tmp_path / "paper"
     report = tmp_path / "site" / "paper.md"
-    argv = ["paper", "--controllers", "none", "--executions", "pseudoinverse", "--out", str(out), "--no-gif",
+    argv = ["paper", "--controller", "none", "--execution", "pseudoinverse", "--out", str(out), "--no-gif",
             "--publish", str(report)]
     assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())

@@ -51,8 +51,8 @@ class Sweep(Checked):
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
             ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
-        seeds: controller seeds ``0 .. seeds - 1`` (of the controllers that draw random numbers; the others run
-            once per scene, as seed 0).
+        seeds: controller seeds, each once (of the controllers that draw random numbers; the others run once per
+            scene, as seed 0).
         scene_seed: the seed the scenes are drawn with.
         settings: what every scene shares (duration, dt, witness).
     """
@@ -61,7 +61,7 @@ class Sweep(Checked):
     scenes: Count = 10
     controllers: tuple[Text, ...] = ()
     executions: tuple[Text, ...] = ()
-    seeds: Count = 1
+    seeds: tuple[Annotated[Integer, Field(ge=0)], ...] = (0,)
     scene_seed: Annotated[Integer, Field(ge=0)] = 0
     settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
 
@@ -70,10 +70,12 @@ class Sweep(Checked):
 
         Raises:
             UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
-            ParameterError: no robot.
+            ParameterError: no robot, or no seed.
         """
         if not self.robots:
             raise ParameterError(f"give at least one robot; valid: {', '.join(PROFILES)}")
+        if not self.seeds:
+            raise ParameterError("give at least one controller seed, e.g. seeds=(0,)")
         for robot in self.robots:
             if robot not in PROFILES:
                 raise UnknownNameError("robot", robot, PROFILES)
@@ -96,9 +98,10 @@ class Sweep(Checked):
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
             for scene in range(self.scenes):
-                for seed in range(self.seeds):
-                    specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                              for name, execution in pairs if control_params.run_seed(name, seed) == seed]
+                runs = dict.fromkeys((control_params.run_seed(name, seed), name, execution)
+                                     for seed in self.seeds for name, execution in pairs)  # each run once, in order
+                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
+                          for seed, name, execution in runs]
         return specs
 
 
