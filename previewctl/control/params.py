@@ -137,7 +137,7 @@ class ControllerParams(Checked):
         feedback_gain: ``K_p`` on the hand error [1/s].
         step_correction: eq. 19's task term is corrected for the period ``dt`` it is applied over: the hand
             error predicted at ``t + dt`` (forward kinematics of ``q ⊕ q̇ dt``) is brought to what the
-            continuous law would leave, ``exp(−K_p dt) e`` (:func:`~previewctl.control.tracking.track`).
+            continuous law would leave, ``exp(−K_p dt) e`` (:func:`~previewctl.control.tracking.step_correction`).
             ``False`` is the paper's eq. 19 as printed (``ṙ_d(t) + K_p e`` held over the period).
         damping: ``λ_max`` of the damped least-squares inverse [m/rad] (0 disables damping).
         singular_threshold: ``ε``: damping starts when ``σ_min(J) < ε`` [m/rad].
