@@ -16,7 +16,11 @@ from typing import Any
 
 import griffe
 
-_ROLE = re.compile(r":(?:func|meth|class|mod|attr|data|exc|obj|const):`(?P<tilde>~?)\.?(?P<target>[\w.]+)`")
+# :role:`target`, :role:`~target` (shows the last name) or :role:`title <target>`; a target may wrap a line.
+_ROLE = re.compile(
+    r":(?:func|meth|class|mod|attr|data|exc|obj|const):`"
+    r"(?:(?P<title>[^`<]+?)\s*<(?P<titled>[\w.]+)>|(?P<tilde>~?)\.?(?P<target>[\w.\s]+?))`"
+)
 _PACKAGE = "previewctl"
 
 
@@ -38,8 +42,11 @@ def _rewrite_tree(obj: griffe.Object, pkg: griffe.Module) -> None:
 
 
 def _link(match: re.Match[str], scope: griffe.Object, pkg: griffe.Module) -> str:
-    written = match["target"]
-    text = written.rsplit(".", 1)[-1] if match["tilde"] else written
+    if match["titled"]:
+        written, text = match["titled"], " ".join(match["title"].split())
+    else:
+        written = re.sub(r"\s", "", match["target"])
+        text = written.rsplit(".", 1)[-1] if match["tilde"] else written
     path = _resolve(written, scope)
     if path is None:
         outside = _is_importable_outside(written)
