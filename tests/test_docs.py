@@ -54,3 +54,17 @@ def test_the_site_requests_nothing_from_the_network(site: Path) -> None:
 def test_the_api_overview_links_every_public_name() -> None:
     overview = (ROOT / "docs" / "api" / "index.md").read_text()
     assert set(re.findall(r"\]\[previewctl\.[\w.]+\.(\w+)\]", overview)) == set(previewctl.__all__)
+
+
+def test_docs_pages_named_in_the_code_exist(site: Path) -> None:
+    """A docstring's ``docs/decisions.md#anchor`` names a page and a heading of the built site."""
+    named = {
+        (match[1], match[2])
+        for source in (ROOT / "previewctl").rglob("*.py")
+        for match in re.finditer(r"docs/([\w/-]+)\.md(?:#([\w-]+))?", source.read_text())
+    }
+    assert ("decisions", "mutants-of-the-tracked-peak-on-spatial-arms") in named
+    for page, anchor in named:
+        built = site / ("" if page == "index" else page) / "index.html"
+        assert built.is_file(), page
+        assert not anchor or f'id="{anchor}"' in built.read_text(), f"{page}.md#{anchor}"
