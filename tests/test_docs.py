@@ -37,11 +37,13 @@ def test_every_api_page_is_built(site: Path) -> None:
         assert built.is_file(), page
 
 
-def test_sphinx_roles_become_links(site: Path) -> None:
-    """``:func:`~previewctl.control.factory.make_controller` `` and its kin render as links, never as raw roles."""
+def test_restructured_text_habits_render_as_markdown(site: Path) -> None:
+    """``:func:`~previewctl.control.factory.make_controller` `` and its kin render as links, never as raw roles, and
+    a ``text::`` literal block as a code block."""
     for page in (site / "api").rglob("index.html"):
         text = page.read_text()
         assert not re.search(r":(func|meth|class|mod|attr|data|exc|obj|const):", text), page
+        assert not re.search(r"::\s*</p>", text), page
     control = (site / "api" / "control" / "index.html").read_text()
     assert 'href="#previewctl.control.params.CONTROLLER_NAMES"' in control
 
