@@ -77,14 +77,11 @@ class Profile:
 _SPATIAL_CONTROLLER = {"gradient_gain": 1e-3, "feedback_gain": 5.0, "gain": 1.0, "preview_time": 1.0,
                        "plan_window": 6.0}
 """The settings of scenarios/panda_crossing.toml and xarm7_crossing.toml (without the local term), and the planar
-scenes' 6 s ``plan_window`` for the sampled searches of ``horizon`` and ``reach``: on the held-out Panda scenes
-(scene seeds 1 and 2, 40 scenes, QP, 1 mm) ``reach`` finished 35 with the default 3 s and 37 with 6 s."""
+scenes' 6 s ``plan_window`` [s] for the sampled searches of ``horizon`` and ``reach`` (chosen on held-out Panda
+scenes: see docs/guide/controllers.md#reach)."""
 _PLANAR_CONTROLLER = {"feedback_gain": 5.0, "plan_window": 6.0}
 """``plan_window``: the DP of ``horizon`` and ``reach`` looks 6 s ahead, not only to the last preview time (3 s).
-On the held-out scenes of seed 1 (before any reported run), QP, 1 mm: ``reach`` 87 % (3 s) -> 97 % (4.5 s and
-6 s), ``horizon`` 90 -> 97 %; 4.5 s was taken first for its cost. Fresh seeds 2 and 3 then favoured 6 s (``reach``
-100 % and 93 % against 93 % and 83 %), and once the DP's transitions were vectorised a 6 s plan cost less than a
-4.5 s one had (bench scenes 0-9: median 0.10 s, p95 0.34-0.44 s, below the 0.5 s replan period), so 6 s it is."""
+How it was chosen: see docs/decisions.md#how-the-planar-bench-settings-were-chosen."""
 
 PROFILES: dict[str, Profile] = {
     "planar4": Profile(q0_center=(0.0, 0.0, 0.0, 0.0), q0_spread=(math.pi, 2.5, 2.5, 2.5), segments=2,

@@ -33,9 +33,8 @@ from previewctl.viz.replay import REPLAY_NAME
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 1 << 28, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
 """glibc settings of the local cluster's worker processes [bytes]. Dask starts its workers with
 ``MALLOC_TRIM_THRESHOLD_ = 64 KiB``, so the reachability DP's arrays of a few to tens of MB, allocated and freed
-at every step, go back to the system and page-fault on every reuse. Measured on two oracle runs (planar bench
-scenes 0-1, one process): 5.8 s of system time and 14.2 s wall with Dask's setting, 1.1 s and 9.2 s with glibc's
-defaults, 0.3 s and 8.3 s with these; the first 800-run sweep spent 505 of its 3279 CPU-seconds in the system."""
+at every step, go back to the system and page-fault on every reuse (measured:
+docs/decisions.md#malloc-thresholds-of-the-benchmarks-workers)."""
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
 

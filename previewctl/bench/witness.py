@@ -7,9 +7,8 @@
   sound; it only finds fewer motions and rejects more draws. Then (``witness_follow``, on by default) the
   ``oracle`` controller, run as the bench runs it (the scene's settings, the default QP execution, the exact
   check), must follow its plan over the whole run without collision and with the hand within
-  ``witness_tolerance`` of the path: a route planned with the future known was followed, as issue 12
-  defines a solvable scene. Without it 4 of the 50 bench scenes of seed 0 passed the DP while the oracle
-  failed them under the QP, so a failure there was not the controller's.
+  ``witness_tolerance`` of the path: a route planned with the future known was followed, so a failure
+  there is the controller's (why the DP alone is not enough: docs/guide/benchmark.md).
 * **Spatial arms: sufficient too, and shown by a run.** First a quick necessary check: ``q0`` is
   collision-free, and every ``witness_period`` seconds some collision-free configuration puts the hand on
   the path (global exploration over the redundancy space, Halton samples). Then (``witness_follow``) the
