@@ -70,7 +70,7 @@ def add_parser(commands: Commands) -> None:
     option("--report-only", action="store_true", help="only remake report.md and success.png")
     option("--publish", metavar="FILE.md", type=Path,
            help="also write the report, without the kept runs, to FILE.md and its figure beside it (FILE.png): "
-           "how the documentation's results pages are made (e.g. --publish docs/results/bench-panda.md)")
+           "how the documentation's results pages are made (e.g. --publish docs/results/bench-planar4.md)")
     add_json_option(bench, "what ran and the files written")
     option("--controllers", dest="controller", action=DeprecatedFlag, use="--controller")
     option("--executions", dest="execution", action=DeprecatedFlag, use="--execution")
