@@ -43,18 +43,25 @@ def bench_source(text: str) -> str:
 
 
 def urdf_digest(source: str) -> str | None:
-    """The first 12 hex digits of the SHA-256 of the URDF file ``source`` (``None`` for a robot name); read once
-    per process.
+    """The first 12 hex digits of the SHA-256 of the URDF file ``source`` (``None`` for a robot name); read again
+    only when the file's size or modification time changes.
 
     Raises:
         RobotLoadError: the file cannot be read.
     """
     path = urdf_path(source)
-    return None if path is None else _digest(path)
+    if path is None:
+        return None
+    try:
+        stat = path.stat()
+    except OSError as exc:
+        raise RobotLoadError(f"URDF file {str(path)!r} cannot be read: {exc}") from exc
+    return _digest(path, stat.st_size, stat.st_mtime_ns)
 
 
 @functools.lru_cache(maxsize=16)
-def _digest(path: Path) -> str:
+def _digest(path: Path, size: int, mtime_ns: int) -> str:
+    """The digest of :func:`urdf_digest`, once per file version."""
     try:
         return hashlib.sha256(path.read_bytes()).hexdigest()[:12]
     except OSError as exc:

@@ -129,7 +129,7 @@ def draw_document(arm: Robot, robot: str, prof: Profile, rng: np.random.Generato
                  for i, (c, q) in enumerate(zip(crossings, states, strict=True))]
     return {
         "name": name,
-        "description": f"bench scene: {robot}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
+        "description": f"bench scene: {robot_label(robot)}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
                        f"{len(obstacles)} crossing obstacle(s)",
         "robot": {"source": robot, "q0": [float(v) for v in q0]},
         "path": {"waypoints": [[float(v) for v in p] for p in waypoints], "duration": duration},
