@@ -19,7 +19,7 @@ from previewctl.bench.profiles import PROFILES, TEMPLATES, derived_profile
 from previewctl.bench.results import read_records
 from previewctl.bench.robots import cached_robot, profile, robot_label, urdf_digest
 from previewctl.bench.runs import settings_hash
-from previewctl.bench.scenes import generate
+from previewctl.bench.scenes import draw_document, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import Sweep
 from previewctl.cli.main import main
@@ -89,6 +89,20 @@ def test_derived_profile_scales_the_panda_template_by_the_reach_and_starts_where
     assert np.all(np.abs(q0) <= 2.6 - 0.4 + 1e-4)
     others = Evaluator(arm, Scene(()))(arm.random_configurations(np.random.default_rng(5), 200), 0.0).amsi
     assert found.amsi[0] > np.quantile(others, 0.9)
+
+
+def test_a_continuous_joint_is_drawn_as_an_angle_and_stored_as_its_cos_sin_pair(tmp_path: Path) -> None:
+    path = tmp_path / "arm7c.urdf"
+    path.write_text(arm_urdf().replace('name="joint1" type="revolute"', 'name="joint1" type="continuous"'))
+    arm = cached_robot(str(path))
+    assert (arm.nq, arm.nv) == (8, 7)
+    prof = profile(str(path))
+    assert len(prof.q0_center) == 7 and all(abs(v) <= 2.2 + 1e-4 for v in prof.q0_center[1:])
+    document = draw_document(arm, str(path), prof, np.random.default_rng(0), SHORT, name="x")
+    q0 = np.array(document["robot"]["q0"])
+    angles = arm.angles_of(q0[None, :])[0]
+    assert q0.shape == (8,) and np.hypot(q0[0], q0[1]) == pytest.approx(1.0)
+    assert np.all(np.abs(angles - np.array(prof.q0_center)) <= 0.4 + 1e-9)
 
 
 def test_a_planar_arm_of_three_joints_gets_planar4s_profile_at_half_the_scale(tmp_path: Path) -> None:

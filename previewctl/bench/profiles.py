@@ -36,7 +36,8 @@ class Profile:
     """How scenes of one robot are drawn (lengths [m], angles [rad], speeds [m/s], times [s]).
 
     Attributes:
-        q0_center: centre of the box ``q0`` is drawn from (clipped to the joint limits).
+        q0_center: centre of the box ``q0`` is drawn from (clipped to the joint limits), in joint coordinates
+            (``nv`` entries: a continuous joint's angle, not its (cos, sin) pair).
         q0_spread: half-widths of that box.
         segments: number of straight path segments.
         segment_length: range of each segment's length.
@@ -101,8 +102,8 @@ def derived_profile(arm: Robot) -> Profile:
     """The profile of ``arm`` scaled from its template (see the module docstring).
 
     Raises:
-        ParameterError: an arm with no redundancy (no more joints than task rows), with a continuous joint, a
-            planar arm the planar witness cannot take, or no sample that qualifies as a nominal pose.
+        ParameterError: an arm with no redundancy (no more joints than task rows), a planar arm the planar
+            witness cannot take, or no sample that qualifies as a nominal pose.
     """
     _require_benchable(arm)
     planar = arm.task == "planar"
@@ -122,7 +123,8 @@ def derived_profile(arm: Robot) -> Profile:
     if height is not None:
         inside &= (hands[:, 2] >= height[0]) & (hands[:, 2] <= height[1])
     spread = template.q0_spread[:1] + template.q0_spread[1:2] * (arm.nv - 1)
-    inside &= np.all((samples >= arm.lower_limits + spread) & (samples <= arm.upper_limits - spread), axis=1)
+    angles = arm.angles_of(samples)
+    inside &= np.all((angles >= arm.joints.lower + spread) & (angles <= arm.joints.upper - spread), axis=1)
     found = Evaluator(arm, Scene(()))(samples, 0.0)
     candidates = np.flatnonzero(inside & ~found.self_collision)
     if candidates.size == 0:
@@ -131,7 +133,7 @@ def derived_profile(arm: Robot) -> Profile:
                              f"{height} m) and the joints {spread[-1]} rad inside their limits; valid: arms with "
                              "such a configuration")
     best = candidates[int(np.argmax(found.amsi[candidates]))]
-    return Profile(q0_center=tuple(round(float(v), 4) for v in samples[best]), q0_spread=spread,
+    return Profile(q0_center=tuple(round(float(v), 4) for v in angles[best]), q0_spread=spread,
                    segments=template.segments, segment_length=scaled(template.segment_length), reach=workspace,
                    height=height, radius=scaled(template.radius), speed=scaled(template.speed),
                    duration=template.duration, controller=template.controller)
@@ -144,9 +146,6 @@ def _require_benchable(arm: Robot) -> None:
         raise ParameterError(f"robot {arm.name!r} has no redundancy: {arm.nv} joints for a {rows}-row "
                              f"{arm.task!r} task; valid: arms with more joints than task rows (e.g. 7 joints for a "
                              "3-D hand position)")
-    if arm.nq != arm.nv:
-        raise ParameterError(f"robot {arm.name!r} has a continuous joint; valid: arms whose joints all have position "
-                             "limits (bench scenes draw q0 within them)")
     if arm.task == "planar" and (arm.planar is None or arm.nv not in PLANAR_JOINTS):
         raise ParameterError(f"robot {arm.name!r} is a planar arm of {arm.nv} joints"
                              f"{'' if arm.planar is not None else ' whose links are not in-plane capsules'}; valid "

@@ -160,9 +160,9 @@ def _in_workspace(prof: Profile, points: Array) -> bool:
 def _draw_start_and_path(arm: Robot, prof: Profile, rng: np.random.Generator) -> tuple[Array, Array]:
     """``q0`` [rad] and the path waypoints [m], every path sample within the workspace."""
     center, spread = np.array(prof.q0_center), np.array(prof.q0_spread)
-    lo, hi = np.maximum(center - spread, arm.lower_limits), np.minimum(center + spread, arm.upper_limits)
+    lo, hi = np.maximum(center - spread, arm.joints.lower), np.minimum(center + spread, arm.joints.upper)
     for _ in range(GEOMETRY_DRAWS):
-        q0 = rng.uniform(lo, hi)
+        q0 = arm.configurations_from_angles(rng.uniform(lo, hi)[None, :])[0]
         points = [_hand(arm, q0)]
         for _ in range(prof.segments):
             angle = rng.uniform(-math.pi, math.pi)
