@@ -217,7 +217,7 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     ({"seeds": ()}, ParameterError, r"^give at least one controller seed, e.g. seeds=\(0,\)$"),
     ({"scene_seed": -1}, ParameterError, r"^scene_seed must be >= 0, got -1$"),
     ({"scene_seed": 1.5}, ParameterError, r"^scene_seed must be an integer, got 1\.5; valid: integers >= 0$"),
-    ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7$"),
+    ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7, a URDF file, "),
     ({"robots": "planar4"}, ParameterError, r"^robots must be a list of strings, got 'planar4'$"),
     ({"robots": ("pandas",)}, UnknownNameError, r"unknown robot 'pandas'; valid: planar4, panda, xarm7"),
     ({"controllers": ("multi", "fancy")}, UnknownNameError, r"unknown controller 'fancy'; valid: none, qp, "),

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
-from previewctl.bench.scenes import PROFILES, BenchScene, cached_robot
+from previewctl.bench.robots import cached_robot, profile, urdf_digest
+from previewctl.bench.scenes import BenchScene
 from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
@@ -71,9 +72,13 @@ def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
 
 
 def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
-    """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields."""
+    """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields (a URDF
+    file's content among them)."""
     described = {"robot": robot, "scene_seed": scene_seed, "settings": dataclasses.asdict(settings),
-                 "profile": dataclasses.asdict(PROFILES[robot]), "generator": GENERATOR_VERSION}
+                 "profile": dataclasses.asdict(profile(robot)), "generator": GENERATOR_VERSION}
+    digest = urdf_digest(robot)
+    if digest is not None:
+        described["urdf"] = digest
     return hashlib.sha256(json.dumps(described, sort_keys=True).encode()).hexdigest()[:12]
 
 

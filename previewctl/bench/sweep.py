@@ -22,8 +22,9 @@ from pydantic import Field, InstanceOf
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
 from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
+from previewctl.bench.robots import VALID_ROBOTS, bench_source, profile
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
-from previewctl.bench.scenes import PROFILES, BenchScene, generate
+from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
@@ -45,7 +46,7 @@ class Sweep(Checked):
     when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
-        robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
+        robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
             ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
@@ -65,19 +66,21 @@ class Sweep(Checked):
     settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
 
     def check(self) -> None:
-        """Every name (each field's type and count is checked by its annotation first).
+        """Every name, and each robot's profile (each field's type and count is checked by its annotation first);
+        a robot's source made canonical (:func:`~previewctl.bench.robots.bench_source`).
 
         Raises:
             UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
-            ParameterError: no robot, or no seed.
+            RobotLoadError: a missing URDF file or one that does not load as an arm.
+            ParameterError: no robot, no seed, or an arm no profile can be derived for.
         """
         if not self.robots:
-            raise ParameterError(f"give at least one robot; valid: {', '.join(PROFILES)}")
+            raise ParameterError(f"give at least one robot; valid: {', '.join(VALID_ROBOTS)}")
         if not self.seeds:
             raise ParameterError("give at least one controller seed, e.g. seeds=(0,)")
+        object.__setattr__(self, "robots", tuple(bench_source(robot) for robot in self.robots))
         for robot in self.robots:
-            if robot not in PROFILES:
-                raise UnknownNameError("robot", robot, PROFILES)
+            profile(robot)
         for name in self.controllers:
             if name not in control_params.CONTROLLER_NAMES:
                 raise UnknownNameError("controller", name, control_params.CONTROLLER_NAMES)

@@ -11,9 +11,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 from previewctl.bench.keep import FAILURES_KEPT
+from previewctl.bench.profiles import PROFILES
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.scenes import PROFILES
 from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import (
@@ -48,7 +48,8 @@ def add_parser(commands: Commands) -> None:
     )
     option = bench.add_argument
     option("--robot", default="planar4", metavar="NAMES",
-           help=f"comma-separated robots (default planar4; valid: {', '.join(PROFILES)})")
+           help=f"comma-separated robots (default planar4): {', '.join(PROFILES)} (hand-written scene profiles), "
+           "any arm `previewctl robots --all` lists or a URDF file (a profile derived from the arm's reach)")
     option("--scenes", type=int, default=10, metavar="N", help="scenes per robot (default 10)")
     option("--controller", metavar="NAMES",
            help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
