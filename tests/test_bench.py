@@ -173,6 +173,7 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
         assert (r["collision_time"] is None) == r["collision_free"]
         assert (r["self_collision_time"] is None) == r["self_collision_free"]
         assert r["cycle_time_median"] <= r["cycle_time_p95"]
+        assert r["host"].endswith(f"load {float(r['host'].rsplit(' ', 1)[1]):.1f}")
         assert r["commit"] == source_commit() and re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", r["measured"])
     # the workers measured what an in-process run of the same scene measures
     scene = next(s for s in read_records(out / "scenes.jsonl") if s["index"] == 1)
@@ -375,12 +376,13 @@ def test_kept_runs_are_the_first_failures_one_success_and_a_contrast_each_way() 
 
 
 def test_report_says_when_at_which_commits_and_on_which_scenes_and_seeds_it_was_measured(tmp_path: Path) -> None:
-    records = [{**_record(scene, "multi", True), "commit": "abc1234", "measured": f"2026-12-0{scene + 1}T10:00:00Z"}
-               for scene in range(3)]
+    records = [{**_record(scene, "multi", True), "commit": "abc1234", "measured": f"2026-12-0{scene + 1}T10:00:00Z",
+                "host": f"2 cores, load {scene + 0.5}"} for scene in range(3)]
     records += [{**_record(5, "qp", False), "scene_seed": 4}]  # older: no commit, no date
     text = write_report(records, [], tmp_path)[0].read_text()
     assert "measured between 2026-12-01T10:00:00Z and 2026-12-03T10:00:00Z, at commit `abc1234` (3 runs), " \
-           "`unknown` (1 runs) (`unknown`: recorded before runs carried their commit)" in text
+           "`unknown` (1 runs) (`unknown`: recorded before runs carried their commit). Load average of the host as " \
+           "runs finished: 0.5 to 2.5" in text
     reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {}` |"
     assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0) in text
     assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4) in text

@@ -81,6 +81,8 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
     published = report.read_text()  # the docs' page: provenance, then one table per scene, in order
     assert re.search(r"^Generated \d{4}-\d\d-\d\dT\S+Z by `previewctl paper` at commit `\S+`, seed of each "
                      r"scenario file\.", published, re.MULTILINE)
+    assert re.search(r"on the machine that made the report \(\d+ cores, load \d+\.\d when the report was written\)",
+                     published)
     assert published.index("## paper_fitted") < published.index("## paper_planar")
     assert re.search(r"^\| none-pinv \| NO: collision at t = 2\d\.\d\d s \(link3\) \| 0\.\d\d \|", published,
                      re.MULTILINE)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from previewctl.bench.provenance import now, source_commit
+from previewctl.bench.provenance import host_load, now, source_commit
 from previewctl.files import atomic_write_bytes
 from previewctl.sim.verdict import verdict_text
 
@@ -41,7 +41,8 @@ def write_paper_report(results: dict[str, dict[str, dict[str, Any]]], path: Path
              f"{seed if seed is not None else 'of each scenario file'}. Success = no collision with an obstacle or "
              "of the arm with itself, and the hand within the scene's tolerance over the whole run. A label "
              "`<name>-pinv` is the controller executed by the paper's pseudo-inverse (eq. 19); the others run under "
-             "the QP. Cycle times are wall-clock times of `Controller.step` on the machine that made the report.", ""]
+             "the QP. Cycle times are wall-clock times of `Controller.step` on the machine that made the report "
+             f"({host_load()} when the report was written).", ""]
     for scene, summaries in results.items():
         first = next(iter(summaries.values()))
         lines += [f"## {scene}", "", f"`scenarios/{scene}.toml`, {first['duration']:g} s, tolerance "

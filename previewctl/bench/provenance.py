@@ -9,6 +9,7 @@ from __future__ import annotations
 import datetime
 import functools
 import importlib.metadata
+import os
 import subprocess
 from pathlib import Path
 
@@ -39,6 +40,13 @@ def now() -> str:
     return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
+def host_load() -> str:
+    """The machine's cores and its 1-minute load average, e.g. ``"2 cores, load 10.8"``: timings measured on a loaded
+    host are slower than on an idle one, and a report says which it was."""
+    return f"{os.cpu_count() or 1} cores, load {os.getloadavg()[0]:.1f}"
+
+
 def stamp() -> dict[str, str]:
-    """The provenance fields of a record made now: ``measured`` (:func:`now`) and ``commit`` (:func:`source_commit`)."""
-    return {"measured": now(), "commit": source_commit()}
+    """The provenance fields of a record made now: ``measured`` (:func:`now`), ``commit`` (:func:`source_commit`) and
+    ``host`` (:func:`host_load`)."""
+    return {"measured": now(), "commit": source_commit(), "host": host_load()}

@@ -67,10 +67,13 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
     for r in records:
         commits[r.get("commit", UNKNOWN)] += 1
     dates = sorted(r["measured"] for r in records if "measured" in r)
+    loads = sorted(float(r["host"].rsplit(" ", 1)[1]) for r in records if "host" in r)
     when = f"between {dates[0]} and {dates[-1]}" if dates else "at dates not recorded"
     at = ", ".join(f"`{commit}` ({count} runs)" for commit, count in sorted(commits.items(), key=lambda c: -c[1]))
     lines = [f"Generated {now()} by `previewctl bench` from {len(records)} runs measured {when}, at commit {at}"
-             + (f" (`{UNKNOWN}`: recorded before runs carried their commit)" if UNKNOWN in commits else "") + ".", "",
+             + (f" (`{UNKNOWN}`: recorded before runs carried their commit)" if UNKNOWN in commits else "") + "."
+             + (f" Load average of the host as runs finished: {loads[0]:.1f} to {loads[-1]:.1f} (cycle and CPU times "
+                "are slower on a loaded host)." if loads else ""), "",
              "| robot | scenes | scene seed | controller seeds | controllers | executions | reproduce |",
              "|---|---|---|---|---|---|---|"]
     for robot, cells in _groups(records).items():
