@@ -22,6 +22,8 @@ The subpackages hold the rest (``previewctl.robot``, ``index``, ``scene``, ``pla
 import does not load.
 """
 
+import logging
+
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller
 from previewctl.control.factory import make_controller
@@ -56,6 +58,8 @@ from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 
 __version__ = "0.1.0"
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())  # diagnostics only where the application asks
 
 __all__ = [
     "CONTROLLER_NAMES",
