@@ -18,8 +18,8 @@ Everything a first run needs is here, one import::
         q = pc.integrate(robot, q, qdot, dt)
 
 The subpackages hold the rest (``previewctl.robot``, ``index``, ``scene``, ``planar``, ``search``,
-``control``, ``sim``, ``viz``, ``cli``); figures need ``previewctl.viz`` (matplotlib), which this
-import does not load.
+``control``, ``sim``, ``viz``, ``cli``); figures need ``previewctl.viz`` and the ``[viz]`` extra
+(matplotlib), which this import does not load. Diagnostics go to the ``previewctl`` logger.
 """
 
 import logging
