@@ -83,3 +83,13 @@ def test_each_optional_import_names_its_extra(
     with pytest.raises(MissingExtraError, match=rf"needs {missing}, which is not installed: "
                        rf"pip install 'previewctl\[{extra}\]'$"):
         call()
+
+
+def test_robots_without_example_robot_data_lists_the_shipped_ones_and_names_the_extra(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "example_robot_data", None)
+    assert main(["robots"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines[1:] if line] == ["planar4", "example-robot-data's"]
+    assert lines[-1] == "example-robot-data's arms (panda, ur5, ...) need: pip install 'previewctl[robots]'"
