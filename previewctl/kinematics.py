@@ -149,7 +149,8 @@ def kinematics(
     Args:
         robot: the arm.
         Q: ``(B, nq)`` validated configurations.
-        after_each: see :meth:`FrameKinematics.__call__`.
+        after_each: called as ``after_each(data)`` once each configuration's joint placements are in ``data``, in
+            batch order (as by :class:`FrameKinematics`).
         reader: the :func:`kinematics_reader` of ``robot`` to reuse (building one costs far more than a
             configuration; keep it across calls).
     """

@@ -159,3 +159,35 @@ def random_chain_urdf(source: Source, n_joints: int) -> str:
         "</robot>",
     ]
     return "\n".join(parts) + "\n"
+
+
+ARM7_JOINTS = (("0 0 1", 0.3), ("0 1 0", 0.0), ("0 0 1", 0.32), ("0 1 0", 0.0), ("0 0 1", 0.32), ("0 1 0", 0.0),
+               ("1 0 0", 0.2))
+"""Axis and height above the previous joint [m] of each joint of :func:`arm_urdf`'s default arm: yaw, then three
+pitch-yaw pairs, the last yaw replaced by a roll at the wrist."""
+
+
+def arm_urdf(joints: tuple[tuple[str, float], ...] = ARM7_JOINTS, name: str = "arm7") -> str:
+    """URDF text of a spatial arm built from primitives (not shipped anywhere): revolute joints (limits +-2.6 rad,
+    2 rad/s) of ``joints`` (axis, height [m] above the previous joint, along z at the neutral pose), a 0.1 m tool to
+    the hand frame ``tool0``, a 4 cm cylinder along each link. The default is a 7-joint arm of about a Panda's reach
+    (0.94 m from the first joint)."""
+    parts = ['<?xml version="1.0"?>', f'<robot name="{name}">', '  <link name="base">',
+             '    <collision><origin xyz="0 0 0.1"/><geometry><cylinder radius="0.06" length="0.2"/></geometry>'
+             '</collision>', "  </link>"]
+    parent = "base"
+    for k, (axis, height) in enumerate(joints):
+        child = f"link{k + 1}"
+        length = joints[k + 1][1] if k + 1 < len(joints) else 0.1
+        parts += [f'  <joint name="joint{k + 1}" type="revolute"><parent link="{parent}"/><child link="{child}"/>',
+                  f'    <origin xyz="0 0 {height}"/><axis xyz="{axis}"/>',
+                  '    <limit lower="-2.6" upper="2.6" effort="50" velocity="2.0"/></joint>',
+                  f'  <link name="{child}">']
+        if length > 0:
+            parts.append(f'    <collision><origin xyz="0 0 {length / 2}"/><geometry><cylinder radius="0.04" '
+                         f'length="{length}"/></geometry></collision>')
+        parts.append("  </link>")
+        parent = child
+    parts += [f'  <joint name="tool" type="fixed"><parent link="{parent}"/><child link="tool0"/>',
+              '    <origin xyz="0 0 0.1"/></joint>', '  <link name="tool0"/>', "</robot>"]
+    return "\n".join(parts) + "\n"

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,7 @@ from helpers import planar_doc, pseudoinverse
 
 from previewctl.bench.keep import contrasts, run_folder, runs_to_keep
 from previewctl.bench.metrics import run_metrics
+from previewctl.bench.provenance import source_commit
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.runs import RunSpec, settings_hash, simulate_spec
@@ -157,8 +160,8 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
 ) -> None:
     monkeypatch.setenv("PYTHONPATH", str(ROOT))  # the worker processes import this worktree's previewctl
     out = tmp_path / "bench"
-    common = ["bench", "--scenes", "2", "--duration", "3", "--executions", "pseudoinverse", "--out", str(out)]
-    assert main([*common, "--workers", "1", "--controllers", "none,gradient", "--keep", "1"]) == 0  # a local cluster
+    common = ["bench", "--scenes", "2", "--duration", "3", "--execution", "pseudoinverse", "--out", str(out)]
+    assert main([*common, "--workers", "1", "--controller", "none,gradient", "--keep", "1"]) == 0  # a local cluster
     assert "4 runs done" in capsys.readouterr().out
     records = read_records(out / "results.jsonl")
     assert sorted((r["scene"], r["controller"]) for r in records) == [
@@ -170,6 +173,7 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
         assert (r["collision_time"] is None) == r["collision_free"]
         assert (r["self_collision_time"] is None) == r["self_collision_free"]
         assert r["cycle_time_median"] <= r["cycle_time_p95"]
+        assert r["commit"] == source_commit() and re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", r["measured"])
     # the workers measured what an in-process run of the same scene measures
     scene = next(s for s in read_records(out / "scenes.jsonl") if s["index"] == 1)
     direct = simulate(pseudoinverse(scenario_from_dict(scene["document"], source=scene["document"]["name"])), "none",
@@ -194,10 +198,11 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     assert f"[replay.html](runs/{kept[0]}/replay.html)" in (out / "report.md").read_text()
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        assert main([*common, "--scheduler", cluster.scheduler_address, "--controllers", "none,gradient,single",
-                     "--keep", "0"]) == 0
-    printed = capsys.readouterr().out
-    assert "2 runs done" in printed and "4 already in" in printed
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--controller", "none,gradient,single",
+                     "--keep", "0", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)  # --json: the whole of stdout is one document
+    assert {k: printed[k] for k in ("planned", "done", "skipped", "failed", "records")} == {
+        "planned": 6, "done": 2, "skipped": 4, "failed": [], "records": 6}
     again = read_records(out / "results.jsonl")
     assert len(again) == 6 and again[:4] == records
     assert sorted(r["scene"] for r in again[4:]) == [0, 1] and {r["controller"] for r in again[4:]} == {"single"}
@@ -207,10 +212,12 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
 @pytest.mark.parametrize(("kwargs", "error", "message"), [
     ({"scenes": 0}, ParameterError, r"^scenes must be >= 1, got 0$"),
     ({"scenes": 2.5}, ParameterError, r"^scenes must be an integer, got 2\.5; valid: integers >= 1$"),
-    ({"seeds": True}, ParameterError, r"^seeds must be an integer, got True; valid: integers >= 1$"),
+    ({"seeds": 3}, ParameterError, r"^seeds must be a list of integers, got 3$"),
+    ({"seeds": (-1,)}, ParameterError, r"^seeds\[0\] must be >= 0, got -1$"),
+    ({"seeds": ()}, ParameterError, r"^give at least one controller seed, e.g. seeds=\(0,\)$"),
     ({"scene_seed": -1}, ParameterError, r"^scene_seed must be >= 0, got -1$"),
     ({"scene_seed": 1.5}, ParameterError, r"^scene_seed must be an integer, got 1\.5; valid: integers >= 0$"),
-    ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7$"),
+    ({"robots": ()}, ParameterError, r"^give at least one robot; valid: planar4, panda, xarm7, a URDF file, "),
     ({"robots": "planar4"}, ParameterError, r"^robots must be a list of strings, got 'planar4'$"),
     ({"robots": ("pandas",)}, UnknownNameError, r"unknown robot 'pandas'; valid: planar4, panda, xarm7"),
     ({"controllers": ("multi", "fancy")}, UnknownNameError, r"unknown controller 'fancy'; valid: none, qp, "),
@@ -241,9 +248,12 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
     assert [(s.controller, s.execution) for s in Sweep(controllers=("none", "qp"), executions=("qp",)).runs()] \
         == [("qp", "qp")] * 10
     # with seeds, only the controllers that draw random numbers run again
-    seeded = Sweep(scenes=1, seeds=3, controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
+    seeded = Sweep(scenes=1, seeds=(0, 1, 2), controllers=("qp", "multi", "oracle"), executions=("qp",)).runs()
     assert [(s.seed, s.controller) for s in seeded] == [
         (0, "qp"), (0, "multi"), (0, "oracle"), (1, "multi"), (2, "multi")]
+    # seeds without 0: the others still run once, as seed 0
+    seeded = Sweep(scenes=1, seeds=(4, 2), controllers=("qp", "multi"), executions=("qp",)).runs()
+    assert [(s.seed, s.controller) for s in seeded] == [(0, "qp"), (4, "multi"), (2, "multi")]
 
 
 @pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "single"])
@@ -285,10 +295,9 @@ def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> 
 @pytest.mark.parametrize(("argv", "message"), [
     (["--robot", "pandas"], "unknown robot 'pandas'; valid: planar4, panda, xarm7"),
     (["--scenes", "0"], "scenes must be >= 1, got 0"),
-    (["--seeds", "0"], "seeds must be >= 1, got 0"),
     (["--scene-seed", "-2"], "scene_seed must be >= 0, got -2"),
-    (["--controllers", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
-    (["--executions", "lp"], "unknown execution mode 'lp'; valid: "),
+    (["--controller", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
+    (["--execution", "lp"], "unknown execution mode 'lp'; valid: "),
 ])
 def test_bench_bad_input_is_one_line_and_exit_2(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -363,3 +372,42 @@ def test_kept_runs_are_the_first_failures_one_success_and_a_contrast_each_way() 
     assert {key: (a["scene"], b["scene"]) for key, (a, b) in pairs.items()} == {
         ("planar4", True): (1, 1), ("planar4", False): (0, 0)}  # multi wins on 1, loses on 0
     assert {"planar4_001_s0_multi_qp", "planar4_001_s0_qp_qp", "planar4_000_s0_multi_qp"} <= kept
+
+
+def test_report_says_when_at_which_commits_and_on_which_scenes_and_seeds_it_was_measured(tmp_path: Path) -> None:
+    records = [{**_record(scene, "multi", True), "commit": "abc1234", "measured": f"2026-12-0{scene + 1}T10:00:00Z"}
+               for scene in range(3)]
+    records += [{**_record(5, "qp", False), "scene_seed": 4}]  # older: no commit, no date
+    text = write_report(records, [], tmp_path)[0].read_text()
+    assert "measured between 2026-12-01T10:00:00Z and 2026-12-03T10:00:00Z, at commit `abc1234` (3 runs), " \
+           "`unknown` (1 runs) (`unknown`: recorded before runs carried their commit)" in text
+    reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {}` |"
+    assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0) in text
+    assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4) in text
+
+
+def test_published_report_leaves_the_kept_runs_out_and_bad_names_are_refused(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bench"
+    out.mkdir()
+    for record in (_record(0, "qp", False), _record(0, "multi", True)):
+        append_record(out / "results.jsonl", record)
+    site = tmp_path / "docs" / "results" / "bench-planar4.md"
+    assert main(["bench", "--report-only", "--out", str(out), "--publish", str(site)]) == 0
+    assert site.read_text().startswith("# previewctl bench: planar4\n")
+    assert site.with_suffix(".png").read_bytes().startswith(b"\x89PNG")
+    assert "](runs/" not in site.read_text()
+    assert main(["bench", "--report-only", "--out", str(out), "--publish", str(tmp_path / "bench.html")]) == 2
+    assert "--publish takes a Markdown file name ending in .md, got" in capsys.readouterr().err
+
+
+def test_a_bench_run_does_not_warn_about_the_scene_table_it_ignores_but_logs_it() -> None:
+    """Every controller of a scene gets the profile's one ``[controller]`` table: a setting one of them does not read
+    is recorded in its composition, not warned about once per run."""
+    document = planar_doc(controller={"name": "none", "plan_window": 6.0}, timing={"duration": 0.5})
+    scene = BenchScene("planar4", 0, 0, document, rejected=0, witness="")
+    spec = RunSpec("planar4", 0, 0, "none", "pseudoinverse", settings="test")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, result = simulate_spec(spec, scene)
+    assert "ignored: plan_window = 6.0" in result.composition

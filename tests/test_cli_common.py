@@ -1,7 +1,9 @@
-"""Tests of :mod:`previewctl.cli.common`: the progress bar (tqdm) on a terminal and in a log file."""
+"""Tests of :mod:`previewctl.cli.common`: the exit codes and their documented table, seed lists, the progress
+bar (tqdm) on a terminal and in a log file."""
 
 from __future__ import annotations
 
+import argparse
 import io
 import re
 from pathlib import Path
@@ -9,8 +11,40 @@ from pathlib import Path
 import pytest
 from helpers import tiny_planar_toml
 
-from previewctl.cli.common import ProgressBar
+from previewctl.cli.common import EXIT_MEANINGS, ExitCode, ProgressBar, seed_count, seed_list
 from previewctl.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_exit_code_has_a_meaning_and_the_docs_table_is_the_same() -> None:
+    assert list(EXIT_MEANINGS) == list(ExitCode)
+    text = (ROOT / "docs" / "guide" / "cli.md").read_text()
+    table = text[text.index("| code | meaning |"):].split("\n\n")[0].splitlines()[2:]
+    rows = [line.strip("|").split("|", 1) for line in table]
+    assert {int(code): meaning.strip() for code, meaning in rows} == {
+        int(code): meaning for code, meaning in EXIT_MEANINGS.items()}
+
+
+@pytest.mark.parametrize(("text", "seeds"), [
+    ("3", (3,)), ("0,1,2", (0, 1, 2)), ("0-4", (0, 1, 2, 3, 4)), ("0-2,7", (0, 1, 2, 7)), ("5, 1-2,1", (5, 1, 2)),
+    ("4-4", (4,)),
+])
+def test_seed_list_takes_values_and_ranges(text: str, seeds: tuple[int, ...]) -> None:
+    assert seed_list(text) == seeds
+
+
+@pytest.mark.parametrize("text", ["", "-1", "2-1", "a", "1.5", "0-", "1,,2", "0-2-4"])
+def test_seed_list_names_the_bad_text(text: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError, match=rf"^must be seeds >= 0 as a comma list or ranges \(e\.g\. "
+                       rf"0-4 or 0,1,2\), got {re.escape(repr(text))}$"):
+        seed_list(text)
+
+
+def test_the_old_seed_count_is_the_seeds_from_0() -> None:
+    assert seed_count("3") == (0, 1, 2)
+    with pytest.raises(argparse.ArgumentTypeError, match=r"^must be a count >= 1, got '0'$"):
+        seed_count("0")
 
 LINE = re.compile(r"^multi +\[[#.]{30}\] +(\d+\.\d)%, t = +(\d+\.\d\d) s  elapsed \d\d:\d\d$")
 """One state of the bar: label, bar, percent, simulated time [s], elapsed (mm:ss)."""

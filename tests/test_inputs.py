@@ -78,7 +78,7 @@ def test_index_of_a_robot_that_is_not_an_arm(robot: str, why: str, capsys: pytes
 
 @pytest.mark.parametrize("command", ["run", "paper"])
 def test_negative_seed(command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    argv = ["run", scenario_file(tmp_path)] if command == "run" else ["paper", "--controllers", "none"]
+    argv = ["run", scenario_file(tmp_path)] if command == "run" else ["paper", "--controller", "none"]
     fails_with([*argv, "--seed", "-3", "--out", str(tmp_path / "out")],
                "argument --seed: must be an integer >= 0, got '-3'", capsys)
 

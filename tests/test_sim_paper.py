@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,9 @@ def test_paper_controllers_use_the_paper_parameters() -> None:
 def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Both scenes, fitted first; on the staircase the paper's eq. 19 keeps the elbow-right family and hits the trap."""
     out = tmp_path / "paper"
-    argv = ["paper", "--controllers", "none", "--executions", "pseudoinverse", "--out", str(out), "--no-gif"]
+    report = tmp_path / "site" / "paper.md"
+    argv = ["paper", "--controller", "none", "--execution", "pseudoinverse", "--out", str(out), "--no-gif",
+            "--publish", str(report)]
     assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert list(summary) == list(CANONICAL_SCENES) == ["paper_fitted", "paper_planar"]
@@ -75,6 +78,17 @@ def test_paper_command_runs_both_canonical_scenes(tmp_path: Path, capsys: pytest
     assert (out / "paper_planar" / "none-pinv" / "replay.html").stat().st_size > 100_000  # each run's 3-D replay
     table = capsys.readouterr().out
     assert table.index("paper_fitted (") < table.index("paper_planar (") and "link3" in table
+    published = report.read_text()  # the docs' page: provenance, then one table per scene, in order
+    assert re.search(r"^Generated \d{4}-\d\d-\d\dT\S+Z by `previewctl paper` at commit `\S+`, seed of each "
+                     r"scenario file\.", published, re.MULTILINE)
+    assert published.index("## paper_fitted") < published.index("## paper_planar")
+    assert re.search(r"^\| none-pinv \| NO: collision at t = 2\d\.\d\d s \(link3\) \| 0\.\d\d \|", published,
+                     re.MULTILINE)
+
+
+def test_paper_publish_refuses_a_file_that_is_not_markdown(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["paper", "--out", str(tmp_path), "--publish", str(tmp_path / "paper.txt")]) == 2
+    assert "--publish takes a Markdown file name ending in .md, got" in capsys.readouterr().err
 
 
 def test_short_multi_preview_run_tracks_without_collision() -> None:

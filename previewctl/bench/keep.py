@@ -5,7 +5,8 @@ not met) and the first successful one; and per robot, the first scene where ``mu
 succeeds and ``qp`` fails, and the first where it is the other way round, with both runs of each (the
 report shows their strobe plots side by side). A kept run is simulated again on a worker (the runs are
 deterministic: same scene, seed, controller and execution give the same log) and written to
-``OUT/runs/<robot>_<scene>_s<seed>_<controller>_<execution>/`` through an atomic folder. A folder that
+``OUT/runs/<robot>_<scene>_s<seed>_<controller>_<execution>/`` (``<robot>``: its
+:func:`~previewctl.bench.robots.robot_label`) through an atomic folder. A folder that
 already holds its replay is not redone, so a resumed sweep keeps only what is missing.
 """
 
@@ -14,6 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from previewctl.bench.robots import robot_label
 from previewctl.bench.runs import RunSpec, simulate_spec
 from previewctl.bench.scenes import BenchScene
 from previewctl.control.params import run_seed
@@ -31,7 +33,7 @@ CONTRAST = ("multi", "qp")
 
 def run_folder(record: dict[str, Any]) -> str:
     """The folder name of a run under ``OUT/runs/``."""
-    return (f"{record['robot']}_{record['scene']:03d}_s{record['seed']}_{record['controller']}_"
+    return (f"{robot_label(record['robot'])}_{record['scene']:03d}_s{record['seed']}_{record['controller']}_"
             f"{record['execution']}")
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
+from previewctl.bench.provenance import UNKNOWN, now
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
@@ -50,6 +51,39 @@ def _self_free(rows: list[dict[str, Any]]) -> str:
     """The share of runs free of self-collision; ``n/a`` for results recorded before self pairs were checked."""
     known = [r for r in rows if "self_collision_free" in r]
     return f"{_rate(known, 'self_collision_free'):.0%}" if known else "n/a"
+
+
+def _span(values: list[int]) -> str:
+    """``0-29`` for a contiguous run of integers, else the sorted list."""
+    ordered = sorted(set(values))
+    if ordered == list(range(ordered[0], ordered[-1] + 1)) and len(ordered) > 2:
+        return f"{ordered[0]}-{ordered[-1]}"
+    return ", ".join(map(str, ordered))
+
+
+def _provenance(records: list[dict[str, Any]]) -> list[str]:
+    """When and at which commits the records were measured, and the scenes and seeds they cover."""
+    commits: dict[str, int] = defaultdict(int)
+    for r in records:
+        commits[r.get("commit", UNKNOWN)] += 1
+    dates = sorted(r["measured"] for r in records if "measured" in r)
+    when = f"between {dates[0]} and {dates[-1]}" if dates else "at dates not recorded"
+    at = ", ".join(f"`{commit}` ({count} runs)" for commit, count in sorted(commits.items(), key=lambda c: -c[1]))
+    lines = [f"Generated {now()} by `previewctl bench` from {len(records)} runs measured {when}, at commit {at}"
+             + (f" (`{UNKNOWN}`: recorded before runs carried their commit)" if UNKNOWN in commits else "") + ".", "",
+             "| robot | scenes | scene seed | controller seeds | controllers | executions | reproduce |",
+             "|---|---|---|---|---|---|---|"]
+    for robot, cells in _groups(records).items():
+        rows = [r for cell in cells.values() for r in cell]
+        for scene_seed in sorted({r.get("scene_seed", 0) for r in rows}):
+            mine = [r for r in rows if r.get("scene_seed", 0) == scene_seed]
+            scenes = sorted({r["scene"] for r in mine})
+            controllers = sorted({r["controller"] for r in mine}, key=lambda c: _order((c, ""))[0])
+            executions = sorted({r["execution"] for r in mine})
+            command = f"previewctl bench --robot {robot} --scenes {scenes[-1] + 1} --scene-seed {scene_seed}"
+            lines.append(f"| {robot} | {_span(scenes)} | {scene_seed} | {_span([r['seed'] for r in mine])} | "
+                         f"{', '.join(controllers)} | {', '.join(executions)} | `{command}` |")
+    return [*lines, ""]
 
 
 def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]]) -> list[str]:
@@ -115,10 +149,13 @@ def _kept(records: list[dict[str, Any]], out: Path) -> list[str]:
     return [*lines, ""]
 
 
-def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], out: Path) -> tuple[Path, Path]:
-    """Write ``report.md`` and ``success.png`` into ``out`` from the result and scene records."""
+def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], out: Path, report_name: str = REPORT_NAME,
+                 figure_name: str = FIGURE_NAME, kept: bool = True) -> tuple[Path, Path]:
+    """Write the report (``out/report_name``) and its figure (``out/figure_name``) from the result and scene
+    records: provenance (dates, commits, scenes and seeds), success rates, preview against ``qp``, and the kept
+    runs of ``out/runs/`` when ``kept`` (a report published elsewhere, e.g. in the docs, leaves them out)."""
     groups = _groups(records)
-    lines = ["# previewctl bench", "",
+    lines = [f"# previewctl bench: {', '.join(groups)}", "", *_provenance(records),
              f"{len(records)} runs. Success = no collision of a guarded link with an obstacle, no collision of the "
              "arm with itself (its self pairs; exact geometry) AND max hand error below the tolerance over the whole "
              "run. `none` runs under the pseudo-inverse only and `qp` under the QP only, and a controller that draws "
@@ -140,10 +177,11 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
     lines += _against_baseline(records)
-    lines += _kept(records, out)
+    if kept:
+        lines += _kept(records, out)
     figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}
-                           for robot, cells in groups.items()}, out / FIGURE_NAME)
-    lines += [f"![success rates]({FIGURE_NAME})", ""]
-    report = out / REPORT_NAME
+                           for robot, cells in groups.items()}, out / figure_name)
+    lines += [f"![success rates]({figure_name})", ""]
+    report = out / report_name
     atomic_write_bytes(report, "\n".join(lines).encode("utf-8"))
     return report, figure

@@ -13,15 +13,18 @@ import functools
 import hashlib
 import json
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
-from previewctl.bench.scenes import PROFILES, BenchScene, cached_robot
+from previewctl.bench.robots import cached_robot, profile, urdf_digest
+from previewctl.bench.scenes import BenchScene
 from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
 from previewctl.control.params import ControllerSpec, ExecutionMode
+from previewctl.errors import IgnoredSettingWarning
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.log import RunResult
@@ -69,9 +72,13 @@ def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
 
 
 def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
-    """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields."""
+    """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields (a URDF
+    file's content among them)."""
     described = {"robot": robot, "scene_seed": scene_seed, "settings": dataclasses.asdict(settings),
-                 "profile": dataclasses.asdict(PROFILES[robot]), "generator": GENERATOR_VERSION}
+                 "profile": dataclasses.asdict(profile(robot)), "generator": GENERATOR_VERSION}
+    digest = urdf_digest(robot)
+    if digest is not None:
+        described["urdf"] = digest
     return hashlib.sha256(json.dumps(described, sort_keys=True).encode()).hexdigest()[:12]
 
 
@@ -92,7 +99,9 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     params = dataclasses.replace(base.controller.params, execution=execution)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
-    controller = make_controller(scenario, seed=spec.seed)
+    with warnings.catch_warnings():  # every controller gets the profile's one table; its composition logs the rest
+        warnings.simplefilter("ignore", IgnoredSettingWarning)
+        controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
     return scenario, simulate(scenario, controller=controller, exact_evaluator=exact)

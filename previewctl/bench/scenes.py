@@ -1,8 +1,10 @@
 """Seeded benchmark scenes: a hand path within reach and obstacles that cross the intermediate links mid-run.
 
-:func:`generate` draws scene ``index`` of a robot from ``np.random.default_rng((crc32(robot), index, seed))``:
+:func:`generate` draws scene ``index`` of a robot from ``np.random.default_rng((crc32(label), index, seed))``
+(the robot's name, or a URDF file's stem and content hash: :func:`~previewctl.bench.robots.robot_label`):
 
-1. ``q0`` uniformly in a box around the robot's nominal pose (:class:`Profile`), the hand there;
+1. ``q0`` uniformly in a box around the robot's nominal pose (its :class:`~previewctl.bench.profiles.Profile`,
+   hand-written or derived from the arm), the hand there;
 2. a hand path of straight segments from that hand, every sample inside the profile's workspace;
 3. the arm's motion under plain tracking (controller ``none``, no obstacle) up to each crossing time
    ``t_c``, drawn in the middle of the run; there a point on the polyline of the joint origins (the
@@ -20,22 +22,22 @@ The same ``(robot, index, seed, settings)`` always gives the same scene.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import math
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from previewctl.bench.profiles import Profile
+from previewctl.bench.robots import bench_source, cached_robot, profile, robot_label
 from previewctl.bench.settings import SceneSettings
 from previewctl.bench.witness import witness
 from previewctl.control.factory import make_controller
-from previewctl.errors import ParameterError, ScenarioError, UnknownNameError
+from previewctl.errors import ParameterError, ScenarioError
 from previewctl.index.evaluator import Evaluator
-from previewctl.index.load import load_robot
 from previewctl.kinematics import integrate
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -43,62 +45,6 @@ from previewctl.scene.file import scene_from_dict
 from previewctl.scene.shapes import Scene
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 from previewctl.types import Array
-
-
-@dataclass(frozen=True)
-class Profile:
-    """How scenes of one robot are drawn (lengths [m], angles [rad], speeds [m/s], times [s]).
-
-    Attributes:
-        q0_center: centre of the box ``q0`` is drawn from (clipped to the joint limits).
-        q0_spread: half-widths of that box.
-        segments: number of straight path segments.
-        segment_length: range of each segment's length.
-        reach: range of the hand's distance from the base's z axis (planar: from the base).
-        height: range of the hand's height (``None``: planar).
-        radius: range of the obstacle radius.
-        speed: range of the obstacle speed.
-        duration: default run length.
-        controller: the ``[controller]`` table every controller runs with (its name is replaced).
-    """
-
-    q0_center: tuple[float, ...]
-    q0_spread: tuple[float, ...]
-    segments: int
-    segment_length: tuple[float, float]
-    reach: tuple[float, float]
-    height: tuple[float, float] | None
-    radius: tuple[float, float]
-    speed: tuple[float, float]
-    duration: float
-    controller: dict[str, Any] = field(default_factory=dict)
-
-
-_SPATIAL_CONTROLLER = {"gradient_gain": 1e-3, "feedback_gain": 5.0, "gain": 1.0, "preview_time": 1.0,
-                       "plan_window": 6.0}
-"""The settings of scenarios/panda_crossing.toml and xarm7_crossing.toml (without the local term), and the planar
-scenes' 6 s ``plan_window`` for the sampled searches of ``horizon`` and ``reach``: on the held-out Panda scenes
-(scene seeds 1 and 2, 40 scenes, QP, 1 mm) ``reach`` finished 35 with the default 3 s and 37 with 6 s."""
-_PLANAR_CONTROLLER = {"feedback_gain": 5.0, "plan_window": 6.0}
-"""``plan_window``: the DP of ``horizon`` and ``reach`` looks 6 s ahead, not only to the last preview time (3 s).
-On the held-out scenes of seed 1 (before any reported run), QP, 1 mm: ``reach`` 87 % (3 s) -> 97 % (4.5 s and
-6 s), ``horizon`` 90 -> 97 %; 4.5 s was taken first for its cost. Fresh seeds 2 and 3 then favoured 6 s (``reach``
-100 % and 93 % against 93 % and 83 %), and once the DP's transitions were vectorised a 6 s plan cost less than a
-4.5 s one had (bench scenes 0-9: median 0.10 s, p95 0.34-0.44 s, below the 0.5 s replan period), so 6 s it is."""
-
-PROFILES: dict[str, Profile] = {
-    "planar4": Profile(q0_center=(0.0, 0.0, 0.0, 0.0), q0_spread=(math.pi, 2.5, 2.5, 2.5), segments=2,
-                       segment_length=(0.3, 0.5), reach=(1.0, 2.6), height=None, radius=(0.08, 0.15),
-                       speed=(0.15, 0.35), duration=8.0, controller=_PLANAR_CONTROLLER),
-    # nominal poses: q0 of scenarios/panda_crossing.toml and scenarios/xarm7_crossing.toml
-    "panda": Profile(q0_center=(-0.231, -0.1124, -0.2518, -2.1351, -0.0842, 2.0147, 0.785), q0_spread=(0.4,) * 7,
-                     segments=1, segment_length=(0.3, 0.5), reach=(0.3, 0.7), height=(0.15, 0.7),
-                     radius=(0.05, 0.09), speed=(0.08, 0.15), duration=10.0, controller=_SPATIAL_CONTROLLER),
-    "xarm7": Profile(q0_center=(-0.2928, 0.1534, -0.2673, 1.0918, -0.0348, 1.1576, 0.0), q0_spread=(0.4,) * 7,
-                     segments=1, segment_length=(0.3, 0.5), reach=(0.3, 0.65), height=(0.15, 0.7),
-                     radius=(0.05, 0.09), speed=(0.08, 0.15), duration=10.0, controller=_SPATIAL_CONTROLLER),
-}
-"""The robots scenes are generated for."""
 
 GEOMETRY_DRAWS = 1000
 """Most draws of ``q0`` and path, or of an obstacle, per scene draw before giving up."""
@@ -142,46 +88,33 @@ class BenchScene:
         return cls(**{f.name: record[f.name] for f in dataclasses.fields(cls) if f.name in record})
 
 
-def profile(robot: str) -> Profile:
-    """The profile of ``robot``.
-
-    Raises:
-        UnknownNameError: a robot without a profile (lists the valid ones).
-    """
-    if robot not in PROFILES:
-        raise UnknownNameError("robot", robot, PROFILES)
-    return PROFILES[robot]
-
-
-@functools.lru_cache(maxsize=8)
-def cached_robot(name: str, geometry: str = "convex") -> Robot:
-    """``load_robot(name, geometry=...)``, once per process (robots are not pickled between workers)."""
-    return load_robot(name, geometry=geometry)  # type: ignore[arg-type]
-
-
 def generate(robot: str, index: int, seed: int = 0, settings: SceneSettings | None = None) -> BenchScene:
-    """Scene ``index`` of ``robot`` for scene seed ``seed``: the first draw the witness accepts.
+    """Scene ``index`` of ``robot`` (a name or a URDF file, :mod:`previewctl.bench.robots`) for scene seed ``seed``:
+    the first draw the witness accepts.
 
     Raises:
         UnknownNameError: an unknown robot.
-        ParameterError: a negative index or seed.
+        RobotLoadError: a robot that does not load as an arm.
+        ParameterError: a negative index or seed, or an arm no profile can be derived for.
         ScenarioError: no draw accepted within ``settings.max_draws``.
     """
+    robot = bench_source(robot)
     prof = profile(robot)
     for name, value in (("scene index", index), ("scene seed", seed)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise ParameterError(f"{name} must be an integer >= 0, got {value!r}")
     settings = settings or SceneSettings()
-    rng = np.random.default_rng((zlib.crc32(robot.encode()), index, seed))
+    label = robot_label(robot)
+    rng = np.random.default_rng((zlib.crc32(label.encode()), index, seed))
     arm = cached_robot(robot)
     for draw in range(settings.max_draws):
-        document = draw_document(arm, robot, prof, rng, settings, name=f"{robot}_{index:03d}_s{seed}")
+        document = draw_document(arm, robot, prof, rng, settings, name=f"{label}_{index:03d}_s{seed}")
         scenario = scenario_from_dict(document, source=document["name"])
         found = witness(scenario, settings)
         if found.holds:
             return BenchScene(robot, index, seed, document, draw, found.sentence, found.oracle_run,
                               found.oracle_plan)
-    raise ScenarioError(f"{robot} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
+    raise ScenarioError(f"{label} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
 
 
 def draw_document(arm: Robot, robot: str, prof: Profile, rng: np.random.Generator, settings: SceneSettings,
@@ -196,7 +129,7 @@ def draw_document(arm: Robot, robot: str, prof: Profile, rng: np.random.Generato
                  for i, (c, q) in enumerate(zip(crossings, states, strict=True))]
     return {
         "name": name,
-        "description": f"bench scene: {robot}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
+        "description": f"bench scene: {robot_label(robot)}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
                        f"{len(obstacles)} crossing obstacle(s)",
         "robot": {"source": robot, "q0": [float(v) for v in q0]},
         "path": {"waypoints": [[float(v) for v in p] for p in waypoints], "duration": duration},
@@ -227,9 +160,9 @@ def _in_workspace(prof: Profile, points: Array) -> bool:
 def _draw_start_and_path(arm: Robot, prof: Profile, rng: np.random.Generator) -> tuple[Array, Array]:
     """``q0`` [rad] and the path waypoints [m], every path sample within the workspace."""
     center, spread = np.array(prof.q0_center), np.array(prof.q0_spread)
-    lo, hi = np.maximum(center - spread, arm.lower_limits), np.minimum(center + spread, arm.upper_limits)
+    lo, hi = np.maximum(center - spread, arm.joints.lower), np.minimum(center + spread, arm.joints.upper)
     for _ in range(GEOMETRY_DRAWS):
-        q0 = rng.uniform(lo, hi)
+        q0 = arm.configurations_from_angles(rng.uniform(lo, hi)[None, :])[0]
         points = [_hand(arm, q0)]
         for _ in range(prof.segments):
             angle = rng.uniform(-math.pi, math.pi)

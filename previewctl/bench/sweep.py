@@ -21,9 +21,11 @@ from typing import Annotated, Any
 from pydantic import Field, InstanceOf
 
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
+from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
+from previewctl.bench.robots import VALID_ROBOTS, bench_source, profile
 from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
-from previewctl.bench.scenes import PROFILES, BenchScene, generate
+from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
@@ -36,9 +38,8 @@ _log = logging.getLogger(__name__)
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 1 << 28, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
 """glibc settings of the local cluster's worker processes [bytes]. Dask starts its workers with
 ``MALLOC_TRIM_THRESHOLD_ = 64 KiB``, so the reachability DP's arrays of a few to tens of MB, allocated and freed
-at every step, go back to the system and page-fault on every reuse. Measured on two oracle runs (planar bench
-scenes 0-1, one process): 5.8 s of system time and 14.2 s wall with Dask's setting, 1.1 s and 9.2 s with glibc's
-defaults, 0.3 s and 8.3 s with these; the first 800-run sweep spent 505 of its 3279 CPU-seconds in the system."""
+at every step, go back to the system and page-fault on every reuse (measured:
+docs/decisions.md#malloc-thresholds-of-the-benchmarks-workers)."""
 RESULTS_NAME = "results.jsonl"
 SCENES_NAME = "scenes.jsonl"
 
@@ -49,13 +50,13 @@ class Sweep(Checked):
     when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
-        robots: robot names (see :data:`~previewctl.bench.scenes.PROFILES`).
+        robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
             ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
-        seeds: controller seeds ``0 .. seeds - 1`` (of the controllers that draw random numbers; the others run
-            once per scene, as seed 0).
+        seeds: controller seeds, each once (of the controllers that draw random numbers; the others run once per
+            scene, as seed 0).
         scene_seed: the seed the scenes are drawn with.
         settings: what every scene shares (duration, dt, witness).
     """
@@ -64,22 +65,26 @@ class Sweep(Checked):
     scenes: Count = 10
     controllers: tuple[Text, ...] = ()
     executions: tuple[Text, ...] = ()
-    seeds: Count = 1
+    seeds: tuple[Annotated[Integer, Field(ge=0)], ...] = (0,)
     scene_seed: Annotated[Integer, Field(ge=0)] = 0
     settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
 
     def check(self) -> None:
-        """Every name (each field's type and count is checked by its annotation first).
+        """Every name, and each robot's profile (each field's type and count is checked by its annotation first);
+        a robot's source made canonical (:func:`~previewctl.bench.robots.bench_source`).
 
         Raises:
             UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
-            ParameterError: no robot.
+            RobotLoadError: a missing URDF file or one that does not load as an arm.
+            ParameterError: no robot, no seed, or an arm no profile can be derived for.
         """
         if not self.robots:
-            raise ParameterError(f"give at least one robot; valid: {', '.join(PROFILES)}")
+            raise ParameterError(f"give at least one robot; valid: {', '.join(VALID_ROBOTS)}")
+        if not self.seeds:
+            raise ParameterError("give at least one controller seed, e.g. seeds=(0,)")
+        object.__setattr__(self, "robots", tuple(bench_source(robot) for robot in self.robots))
         for robot in self.robots:
-            if robot not in PROFILES:
-                raise UnknownNameError("robot", robot, PROFILES)
+            profile(robot)
         for name in self.controllers:
             if name not in control_params.CONTROLLER_NAMES:
                 raise UnknownNameError("controller", name, control_params.CONTROLLER_NAMES)
@@ -99,9 +104,10 @@ class Sweep(Checked):
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
             for scene in range(self.scenes):
-                for seed in range(self.seeds):
-                    specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                              for name, execution in pairs if control_params.run_seed(name, seed) == seed]
+                runs = dict.fromkeys((control_params.run_seed(name, seed), name, execution)
+                                     for seed in self.seeds for name, execution in pairs)  # each run once, in order
+                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
+                          for seed, name, execution in runs]
         return specs
 
 
@@ -131,7 +137,8 @@ def missing_runs(sweep: Sweep, results: Path) -> tuple[list[RunSpec], int]:
 
 def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[str, Any]], None] | None = None,
               on_start: Callable[[int], None] | None = None) -> SweepOutcome:
-    """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``.
+    """Run the missing runs of ``sweep`` on the Dask ``client``; append each result to ``out/results.jsonl``,
+    stamped with the time it arrived and the client's commit (:func:`~previewctl.bench.provenance.stamp`).
 
     Args:
         sweep: the matrix.
@@ -176,7 +183,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
             fetched[key] = scene_tasks[key].result()
             if key not in known:
                 append_record(scenes_file, {**dataclasses.asdict(fetched[key]), "settings": spec.settings})
-        append_record(results, {**record, "scene_rejected": fetched[key].rejected})
+        append_record(results, {**record, "scene_rejected": fetched[key].rejected, **stamp()})
         outcome.done += 1
         if on_result is not None:
             on_result(record)

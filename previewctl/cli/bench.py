@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -10,12 +11,20 @@ from pathlib import Path
 from tqdm import tqdm
 
 from previewctl.bench.keep import FAILURES_KEPT
+from previewctl.bench.profiles import PROFILES
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.scenes import PROFILES
 from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
-from previewctl.cli.common import Commands
+from previewctl.cli.common import (
+    Commands,
+    DeprecatedFlag,
+    ExitCode,
+    add_json_option,
+    print_json,
+    seed_count,
+    seed_list,
+)
 from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, SEEDED_CONTROLLERS
 from previewctl.errors import ParameterError
 
@@ -35,19 +44,20 @@ def add_parser(commands: Commands) -> None:
         "OUT/success.png, and keep the failures (and one success per controller) with their figures and 3-D replays "
         "in OUT/runs/. A rerun does only the runs missing from OUT/results.jsonl. Runs on a local Dask cluster "
         "(one worker process per core) or on the cluster at --scheduler.",
-        epilog="example: previewctl bench --robot planar4,panda --scenes 10 --workers 2 --out out/bench",
+        epilog="example: previewctl bench --robot planar4,panda --scenes 10 --seed 0-2 --workers 2 --out out/bench",
     )
     option = bench.add_argument
     option("--robot", default="planar4", metavar="NAMES",
-           help=f"comma-separated robots (default planar4; valid: {', '.join(PROFILES)})")
+           help=f"comma-separated robots (default planar4): {', '.join(PROFILES)} (hand-written scene profiles), "
+           "any arm `previewctl robots --all` lists or a URDF file (a profile derived from the arm's reach)")
     option("--scenes", type=int, default=10, metavar="N", help="scenes per robot (default 10)")
-    option("--controllers", metavar="NAMES",
+    option("--controller", metavar="NAMES",
            help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
-    option("--executions", metavar="NAMES",
+    option("--execution", metavar="NAMES",
            help=f"comma-separated execution modes (default: all of {', '.join(EXECUTION_MODES)})")
-    option("--seeds", type=int, default=1, metavar="N",
-           help="controller seeds 0..N-1 per scene (default 1); the controllers that draw no random numbers (all but "
-           f"{', '.join(SEEDED_CONTROLLERS)}) run once, as seed 0")
+    option("--seed", type=seed_list, default=(0,), metavar="SEEDS",
+           help="controller seeds per scene, a comma list or ranges, e.g. 0-4 or 0,1,2 (default 0); the controllers "
+           f"that draw no random numbers (all but {', '.join(SEEDED_CONTROLLERS)}) run once, as seed 0")
     option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
     option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
     option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")
@@ -59,6 +69,14 @@ def add_parser(commands: Commands) -> None:
            f"in OUT/runs/ (default {FAILURES_KEPT}; one success each and the multi-vs-qp contrasts are kept too; "
            "0 keeps nothing)")
     option("--report-only", action="store_true", help="only remake report.md and success.png")
+    option("--publish", metavar="FILE.md", type=Path,
+           help="also write the report, without the kept runs, to FILE.md and its figure beside it (FILE.png): "
+           "how the documentation's results pages are made (e.g. --publish docs/results/bench-planar4.md)")
+    add_json_option(bench, "what ran and the files written")
+    option("--controllers", dest="controller", action=DeprecatedFlag, use="--controller")
+    option("--executions", dest="execution", action=DeprecatedFlag, use="--execution")
+    option("--seeds", dest="seed", type=seed_count, metavar="N", action=DeprecatedFlag,
+           use="--seed (seeds, not a count: --seeds 3 is --seed 0-2)")
     bench.set_defaults(func=cmd_bench)
 
 
@@ -67,15 +85,18 @@ def _names(text: str | None) -> tuple[str, ...]:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """Run the missing runs of the sweep, then write the report; exit 1 if a run failed."""
+    """Run the missing runs of the sweep, then write the report; exit 1 if a run raised."""
     out = Path(args.out)
+    if args.publish is not None and args.publish.suffix != ".md":
+        raise ParameterError(f"--publish takes a Markdown file name ending in .md, got {str(args.publish)!r}")
+    document: dict[str, object] = {"out": str(out)}
     if not args.report_only:
         if args.keep < 0:
             raise ParameterError(f"--keep must be >= 0, got {args.keep}")
         if args.workers is not None and args.scheduler is not None:
             raise ParameterError("--workers sizes a local cluster; it cannot be used with --scheduler")
-        sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controllers),
-                      executions=_names(args.executions), seeds=args.seeds, scene_seed=args.scene_seed,
+        sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controller),
+                      executions=_names(args.execution), seeds=args.seed, scene_seed=args.scene_seed,
                       settings=SceneSettings(duration=args.duration))
         start = time.perf_counter()
         bars: list[tqdm] = []
@@ -91,14 +112,32 @@ def cmd_bench(args: argparse.Namespace) -> int:
         finally:
             for bar in bars:
                 bar.close()
-        print(f"{outcome.done} runs done in {time.perf_counter() - start:.1f} s, {outcome.skipped} already in "
-              f"{out / RESULTS_NAME}, {len(outcome.failed)} failed (of {outcome.planned})")
+        seconds = time.perf_counter() - start
+        document |= {"planned": outcome.planned, "done": outcome.done, "skipped": outcome.skipped,
+                     "seconds": round(seconds, 3), "failed": [{**dataclasses.asdict(spec), "error": message}
+                                                             for spec, message in outcome.failed]}
+        if not args.json:
+            print(f"{outcome.done} runs done in {seconds:.1f} s, {outcome.skipped} already in "
+                  f"{out / RESULTS_NAME}, {len(outcome.failed)} failed (of {outcome.planned})")
         for spec, message in outcome.failed[:5]:
             print(f"failed: {spec.robot} scene {spec.scene} seed {spec.seed} {spec.controller}/{spec.execution}: "
                   f"{message}", file=sys.stderr)
     records = read_records(out / RESULTS_NAME)
     if not records:
         raise ParameterError(f"no results in {out / RESULTS_NAME}: nothing to report")
-    report, figure = write_report(records, read_records(out / SCENES_NAME), out)
-    print(f"written {out / RESULTS_NAME}, {report}, {figure}")
-    return 1 if not args.report_only and outcome.failed else 0
+    scenes = read_records(out / SCENES_NAME)
+    report, figure = write_report(records, scenes, out)
+    files = [str(out / RESULTS_NAME), str(report), str(figure)]
+    if args.publish is not None:
+        try:
+            args.publish.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ParameterError(f"--publish: cannot create the folder {str(args.publish.parent)!r}: {exc}") from exc
+        files += map(str, write_report(records, scenes, args.publish.parent, report_name=args.publish.name,
+                                       figure_name=args.publish.with_suffix(".png").name, kept=False))
+    code = ExitCode.ERROR if not args.report_only and outcome.failed else ExitCode.OK
+    if args.json:
+        print_json(document | {"records": len(records), "files": files})
+    else:
+        print(f"written {', '.join(files)}")
+    return code

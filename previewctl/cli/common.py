@@ -1,10 +1,15 @@
-"""What the commands share: the argument parser that exits 2 on bad input, vector parsing, progress display."""
+"""What the commands share: the exit codes, the argument parser that exits 2 on bad input, deprecated flags, JSON
+output, vector and seed parsing, progress display."""
 
 from __future__ import annotations
 
 import argparse
+import enum
+import json
 import sys
+import textwrap
 import time
+from collections.abc import Sequence
 from typing import Any, TextIO, TypeAlias
 
 import numpy as np
@@ -13,10 +18,35 @@ from tqdm import tqdm
 from previewctl.errors import PreviewctlError
 from previewctl.robot.model import GEOMETRY_CHOICES
 
-EXIT_USAGE = 2
-EXIT_FAILED_RUN = 3
-"""Exit code of ``previewctl run`` when the run completed but failed: a collision, or a hand error over
-the tolerance (2 stays bad input)."""
+
+class ExitCode(enum.IntEnum):
+    """The exit status of every command; :data:`EXIT_MEANINGS` says what each means (``previewctl --help`` and
+    docs/guide/cli.md show that table)."""
+
+    OK = 0
+    ERROR = 1
+    USAGE = 2
+    VERDICT_FAILED = 3
+    INTERRUPTED = 130
+
+
+EXIT_MEANINGS: dict[ExitCode, str] = {
+    ExitCode.OK: "success",
+    ExitCode.ERROR: "some work raised: a bench run (the report of the others is still written), or --version "
+    "without an installed distribution",
+    ExitCode.USAGE: "bad input (one line on stderr)",
+    ExitCode.VERDICT_FAILED: "a run completed but failed its verdict: a collision, a self-collision or a hand "
+    "error over the tolerance (run)",
+    ExitCode.INTERRUPTED: "interrupted (Ctrl-C)",
+}
+"""What each exit code means; paper and bench exit 0 whatever their runs' verdicts: their tables are the result."""
+
+
+def exit_codes_text() -> str:
+    """The exit-code table as help text: one line per code."""
+    rows = (textwrap.fill(meaning, 100, initial_indent=f"  {int(code):>3}  ", subsequent_indent=" " * 7)
+            for code, meaning in EXIT_MEANINGS.items())
+    return "exit codes:\n" + "\n".join(rows)
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -24,7 +54,37 @@ class ArgumentParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"previewctl: error: {message} (see '{self.prog} --help')\n")
-        raise SystemExit(EXIT_USAGE)
+        raise SystemExit(ExitCode.USAGE)
+
+
+class DeprecatedFlag(argparse.Action):
+    """An old spelling of an option, kept for one release: it stores its value where the new spelling does and
+    writes one line, ``previewctl: warning: --jobs is deprecated; use --workers``, to stderr.
+
+    Use: ``parser.add_argument("--jobs", dest="workers", type=int, action=DeprecatedFlag, use="--workers")``;
+    give a ``type`` that turns the old meaning into the new value where the meaning changed."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, *, use: str, **kwargs: Any) -> None:
+        kwargs.setdefault("help", f"deprecated: use {use}")
+        kwargs.setdefault("default", argparse.SUPPRESS)  # the new spelling's default stands
+        super().__init__(option_strings, dest, **kwargs)
+        self.use = use
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        sys.stderr.write(f"previewctl: warning: {option_string} is deprecated; use {self.use}\n")
+        setattr(namespace, self.dest, values)
+
+
+def print_json(document: Any) -> None:
+    """Print ``document`` as the whole of stdout (``--json``): indented JSON and a newline."""
+    sys.stdout.write(json.dumps(document, indent=2) + "\n")
+
+
+def add_json_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """The ``--json`` flag of a command that prints results: ``what`` the document holds."""
+    parser.add_argument("--json", action="store_true",
+                        help=f"print {what} as JSON, and nothing else, on stdout (progress stays on stderr)")
 
 
 Commands: TypeAlias = "argparse._SubParsersAction[ArgumentParser]"
@@ -53,25 +113,32 @@ def seed_value(text: str) -> int:
     return value
 
 
-def verdict_text(summary: dict[str, Any], digits: int = 3) -> str:
-    """``"yes"``, or ``"NO: "`` and what failed first, from a run's summary (times with ``digits`` decimals)."""
-    if summary["success"]:
-        return "yes"
-    parts = []
-    if summary["collided"]:
-        parts.append(f"collision at t = {summary['collision_time']:.{digits}f} s ({summary['collision_link']})")
-    if summary.get("self_collided"):
-        parts.append(self_collision_text(summary, digits))
-    if summary["error_time"] is not None:
-        parts.append(f"hand error > {summary['tolerance'] * 1e3:.2f} mm from t = {summary['error_time']:.{digits}f} s")
-    return "NO: " + "; ".join(parts)
+def seed_list(text: str) -> tuple[int, ...]:
+    """An argparse ``type``: seeds as a comma list of integers >= 0 and ranges, ``"3"``, ``"0,1,2"``, ``"0-4"``
+    (both ends included), ``"0-2,7"``; each seed once, in the order given."""
+    seeds: dict[int, None] = {}  # ordered, each seed once
+    for part in text.replace(" ", "").split(","):
+        low, dash, high = part.partition("-")
+        try:
+            first, last = seed_value(low), seed_value(high if dash else low)
+        except argparse.ArgumentTypeError:
+            first, last = 0, -1
+        if first > last:
+            raise argparse.ArgumentTypeError(f"must be seeds >= 0 as a comma list or ranges (e.g. 0-4 or 0,1,2), "
+                                             f"got {text!r}")
+        seeds |= dict.fromkeys(range(first, last + 1))
+    return tuple(seeds)
 
 
-def self_collision_text(summary: dict[str, Any], digits: int = 2) -> str:
-    """``"self-collision at t = 5.40 s: panda_link1 hits panda_leftfinger"`` from a run's summary (which must have
-    ``self_collided``)."""
-    a, b = summary["self_collision_links"] or ("?", "?")
-    return f"self-collision at t = {summary['self_collision_time']:.{digits}f} s: {a} hits {b}"
+def seed_count(text: str) -> tuple[int, ...]:
+    """An argparse ``type`` for the deprecated ``--seeds N`` (a count): the seeds ``0 .. N-1``."""
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"must be a count >= 1, got {text!r}")
+    return tuple(range(count))
 
 
 def finite_or_none(value: float) -> float | None:

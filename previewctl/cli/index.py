@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 import numpy as np
 
-from previewctl.cli.common import Commands, add_evaluation_options, finite_or_none, parse_vector
+from previewctl.cli.common import (
+    Commands,
+    add_evaluation_options,
+    add_json_option,
+    finite_or_none,
+    parse_vector,
+    print_json,
+)
 from previewctl.errors import ConfigurationError
 from previewctl.index.amsi import IndexParams, avoidance
 from previewctl.index.evaluator import Evaluator
@@ -35,7 +41,7 @@ def add_parser(commands: Commands) -> None:
                        "nq entries of q (a continuous joint's cos, sin); within the joint limits")
     index.add_argument("--degrees", action="store_true", help="read the joint angles of --q in degrees")
     add_evaluation_options(index)
-    index.add_argument("--json", action="store_true", help="print JSON")
+    add_json_option(index, "the avoidance table, the clearances and S")
     index.set_defaults(func=cmd_index)
 
 
@@ -77,7 +83,7 @@ def cmd_index(args: argparse.Namespace) -> int:
         "length_unit_m": index.length_unit,
     }
     if args.json:
-        print(json.dumps(report, indent=2))
+        print_json(report)
         return 0
     hand = np.round(ev.tip_position[0], 4)
     angles = np.array2string(robot.angles_of(q[None])[0], precision=4)

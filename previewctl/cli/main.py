@@ -1,6 +1,6 @@
 """Command line: ``previewctl {robots,index,map,run,paper,reach-map,view,bench}``.
 
-Bad input -> one line on stderr, exit 2."""
+Bad input -> one line on stderr, exit 2; every exit code is in :class:`~previewctl.cli.common.ExitCode`."""
 
 from __future__ import annotations
 
@@ -15,18 +15,15 @@ from typing import Any, NoReturn, TextIO
 
 from previewctl.cli import bench, index, paper, reach_map, robots, run, view
 from previewctl.cli import map as map_command
-from previewctl.cli.common import EXIT_USAGE, ArgumentParser
+from previewctl.cli.common import ArgumentParser, ExitCode, exit_codes_text
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
-
-EXIT_NO_VERSION = 1
-"""Exit code of ``previewctl --version`` when previewctl is not installed as a distribution."""
 
 
 class VersionAction(argparse.Action):
     """``--version``: print ``previewctl <version>`` (the installed distribution's) and exit 0.
 
     The version is looked up only when asked for. Without an installed distribution (the source tree on
-    ``PYTHONPATH``) there is none to report: one line on stderr says so, exit 1."""
+    ``PYTHONPATH``) there is none to report: one line on stderr says so, exit 1 (``ExitCode.ERROR``)."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs: Any) -> None:
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
@@ -36,18 +33,20 @@ class VersionAction(argparse.Action):
         try:
             version = importlib.metadata.version("previewctl")
         except importlib.metadata.PackageNotFoundError:
-            parser.exit(EXIT_NO_VERSION, "previewctl: version unknown: previewctl is not installed as a distribution "
+            parser.exit(ExitCode.ERROR, "previewctl: version unknown: previewctl is not installed as a distribution "
                         "(install it with 'pip install -e .' from the source tree)\n")
         sys.stdout.write(f"previewctl {version}\n")
-        parser.exit(0)
+        parser.exit(ExitCode.OK)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand (each command module adds its own)."""
     parser = ArgumentParser(
         prog="previewctl",
-        description="On-line trajectory tracking with obstacle avoidance for redundant arms "
+        description="On-line trajectory tracking with obstacle avoidance for redundant arms\n"
         "(avoidance manipulability, 1-step GA, multi-preview control).",
+        epilog=exit_codes_text(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action=VersionAction, help="print the installed version and exit")
     parser.add_argument("-v", "--verbose", action="store_true", dest="log_info",  # robots has its own --verbose
@@ -95,10 +94,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(args.func(args))
     except PreviewctlError as exc:
         sys.stderr.write(f"previewctl: error: {exc}\n")
-        return EXIT_USAGE
+        return ExitCode.USAGE
     except KeyboardInterrupt:
         sys.stderr.write("previewctl: interrupted\n")
-        return 130
+        return ExitCode.INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from previewctl.cli.common import Commands, add_evaluation_options, parse_vector, seed_value
+from previewctl.cli.common import (
+    Commands,
+    add_evaluation_options,
+    add_json_option,
+    parse_vector,
+    print_json,
+    seed_value,
+)
 from previewctl.errors import PreviewctlError
 from previewctl.files import check_output_file
 from previewctl.index.amsi import IndexParams
@@ -39,7 +45,7 @@ def add_parser(commands: Commands) -> None:
     map_.add_argument("--scenario", help="scenario TOML file: robot, scene, index and (at --time) the target")
     map_.add_argument("--out", help="write the map to this PNG file")
     map_.add_argument("--surface", action="store_true", help="also write the 3-D surface to <out>_surface.png")
-    map_.add_argument("--json", action="store_true", help="print JSON (genes in degrees, configuration, S, peaks)")
+    add_json_option(map_, "the best configuration and the peaks (genes in degrees, q, S)")
     map_.add_argument("--resolution", type=float, default=1.0, help="grid step [deg] (default 1)")
     map_.add_argument("--top-k", type=int, default=4, help="number of peaks to report (default 4)")
     map_.add_argument("--samples", type=int, help="Halton samples for arms with more than two genes")
@@ -71,7 +77,7 @@ def cmd_map(args: argparse.Namespace) -> int:
         "files": written,
     }
     if args.json:
-        print(json.dumps(report, indent=2))
+        print_json(report)
     else:
         _print_table(report)
     return 0

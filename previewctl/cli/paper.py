@@ -12,7 +12,8 @@ from typing import Any
 
 from tqdm import tqdm
 
-from previewctl.cli.common import Commands, seed_value, verdict_text
+from previewctl.bench.paper_report import write_paper_report
+from previewctl.cli.common import Commands, DeprecatedFlag, add_json_option, print_json, seed_value
 from previewctl.control.params import EXECUTION_MODES
 from previewctl.errors import PreviewctlError
 from previewctl.sim.log import RunResult
@@ -25,6 +26,7 @@ from previewctl.sim.paper import (
     run_paper_scenes,
 )
 from previewctl.sim.scenario import Scenario
+from previewctl.sim.verdict import verdict_text
 from previewctl.viz.figures import make_figures
 from previewctl.viz.replay import REPLAY_NAME, write_replay
 
@@ -48,9 +50,13 @@ def add_parser(commands: Commands) -> None:
         )
     )
     paper.add_argument("--out", default="out/paper", help="output folder (default out/paper)")
-    paper.add_argument("--controllers", help="comma-separated subset, e.g. single,multi (default: all)")
-    paper.add_argument("--executions", help="comma-separated subset of qp,pseudoinverse (default: both)")
-    paper.add_argument("--scenes", help="comma-separated subset, e.g. paper_fitted (default: both canonical scenes)")
+    paper.add_argument("--controller", metavar="NAMES",
+                       help=f"comma-separated subset of {','.join(PAPER_CONTROLLERS)} (default: all)")
+    paper.add_argument("--execution", metavar="NAMES",
+                       help=f"comma-separated subset of {','.join(EXECUTION_MODES)} (default: all)")
+    paper.add_argument("--scenario", metavar="NAMES",
+                       help=f"comma-separated subset of the canonical scenarios {','.join(CANONICAL_SCENES)} "
+                       "(default: all)")
     paper.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     paper.add_argument("--tolerance", type=float,
                        help="largest hand error [m] of a successful run (default: each scene's [verdict] "
@@ -58,8 +64,17 @@ def add_parser(commands: Commands) -> None:
     paper.add_argument("--no-gif", action="store_true", help="do not write the animated GIFs")
     paper.add_argument("--no-replay", action="store_true",
                        help=f"do not write the 3-D replays (OUT/<scene>/<label>/{REPLAY_NAME})")
-    paper.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+    paper.add_argument("--publish", metavar="FILE.md", type=Path,
+                       help="also write the tables, with the date, commit and seed, as Markdown to FILE.md: how the "
+                       "documentation's results page of the paper's scenes is made "
+                       "(e.g. --publish docs/results/paper.md)")
+    paper.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
                        help="runs in parallel, one process each (default: the number of cores)")
+    add_json_option(paper, "every run's summary, by scenario and label,")
+    paper.add_argument("--controllers", dest="controller", action=DeprecatedFlag, use="--controller")
+    paper.add_argument("--executions", dest="execution", action=DeprecatedFlag, use="--execution")
+    paper.add_argument("--scenes", dest="scenario", action=DeprecatedFlag, use="--scenario")
+    paper.add_argument("--jobs", dest="workers", type=int, action=DeprecatedFlag, use="--workers")
     paper.set_defaults(func=cmd_paper)
 
 
@@ -97,11 +112,13 @@ def _replay(folder: Path, scene: str) -> None:
 
 def cmd_paper(args: argparse.Namespace) -> int:
     """Run the canonical planar scenes with every controller: comparison tables, figures, summary.json."""
-    names = _names(args.controllers, tuple(PAPER_CONTROLLERS), "--controllers")
-    executions = _names(args.executions, EXECUTION_MODES, "--executions")
-    scenes = _names(args.scenes, CANONICAL_SCENES, "--scenes")
-    if args.jobs < 1:
-        raise PreviewctlError(f"--jobs must be >= 1, got {args.jobs}")
+    names = _names(args.controller, tuple(PAPER_CONTROLLERS), "--controller")
+    executions = _names(args.execution, EXECUTION_MODES, "--execution")
+    scenes = _names(args.scenario, CANONICAL_SCENES, "--scenario")
+    if args.workers < 1:
+        raise PreviewctlError(f"--workers must be >= 1, got {args.workers}")
+    if args.publish is not None and args.publish.suffix != ".md":
+        raise PreviewctlError(f"--publish takes a Markdown file name ending in .md, got {str(args.publish)!r}")
     out = Path(args.out)
     plan = paper_plan(scenes, names, executions)
     bar = tqdm(total=len(plan), desc="paper runs", unit="run", file=sys.stderr, ascii=".#")
@@ -113,16 +130,23 @@ def cmd_paper(args: argparse.Namespace) -> int:
 
     try:
         results = run_paper_scenes(out, scenes=scenes, controllers=names, executions=executions, seed=args.seed,
-                                   jobs=min(args.jobs, len(plan)), on_done=done, tolerance=args.tolerance,
+                                   jobs=min(args.workers, len(plan)), on_done=done, tolerance=args.tolerance,
                                    after_run=functools.partial(_figures, gif=not args.no_gif))
     finally:
         bar.close()
     if not args.no_replay:  # after every run: each replay shows the scene's oracle run beside it
         folders = [out / run.scene / run.label for run in plan]
-        with ProcessPoolExecutor(max(1, min(args.jobs, len(plan)))) as pool:
+        with ProcessPoolExecutor(max(1, min(args.workers, len(plan)))) as pool:
             list(tqdm(pool.map(_replay, folders, [run.scene for run in plan]), total=len(plan),
                       desc="3-D replays", unit="run", file=sys.stderr, ascii=".#"))
+    published = None if args.publish is None else write_paper_report(results, args.publish, args.seed)
+    if args.json:
+        print_json({"out": str(out), "summary_file": str(out / "summary.json"), "scenarios": results,
+                    "published": None if published is None else str(published)})
+        return 0
     for scene, summaries in results.items():
         _table(scene, summaries, out)
     print(f"written {out / 'summary.json'} (and {out}/<scene>/summary.json)")
+    if published is not None:
+        print(f"published {published}")
     return 0

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from previewctl.cli.common import add_json_option, print_json
 from previewctl.control.planner import ORACLE_GENE_SPEED
 from previewctl.files import atomic_write, atomic_write_bytes
 from previewctl.index.evaluator import Evaluator
@@ -63,7 +64,7 @@ def add_parser(sub: Any) -> None:
                         "every step")
     parser.add_argument("--out", help="folder for reach_maps.png (Fig. 8-like), reach_motion.png, reach.json and "
                         "reach_motion.npz (a spatial arm: reach.json and reach_motion.npz)")
-    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_json_option(parser, "the summary")
     parser.set_defaults(func=cmd_reach_map)
 
 
@@ -95,7 +96,7 @@ def cmd_reach_map(args: argparse.Namespace) -> int:
         written.append(str(plot_reach_motion(result, out / "reach_motion.png")))
         written = _write_results(out, summary, result.motion, written)
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print_json(summary)
         return 0
     _print(summary, result, written, asked_resolution=args.resolution)
     return 0
@@ -120,7 +121,7 @@ def _spatial(args: argparse.Namespace, scenario: Scenario) -> int:
         out.mkdir(parents=True, exist_ok=True)
         written = _write_results(out, summary, found.motion, [])
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print_json(summary)
         return 0
     rows = [("scenario", f"{scenario.name} ({robot.name}), {duration:g} s"),
             ("search", f"sampled forward search: layers every {options.step:g} s, {options.beam} kept "

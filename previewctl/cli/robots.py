@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from tqdm import tqdm
 
-from previewctl.cli.common import Commands, is_terminal
+from previewctl.cli.common import Commands, add_json_option, is_terminal, print_json
 from previewctl.errors import PreviewctlError
 from previewctl.index.load import example_robot_names, load_robot, shipped_robot_names
 
@@ -20,7 +19,7 @@ def add_parser(commands: Commands) -> None:
     """The ``robots`` subcommand and its options."""
     robots = commands.add_parser("robots", help="list the robots that load as arms")
     robots.add_argument("--all", action="store_true", help="try every example-robot-data name (about 40 s)")
-    robots.add_argument("--json", action="store_true", help="print JSON")
+    add_json_option(robots, "the arms and the robots that are not arms, with the reason,")
     robots.add_argument("--verbose", action="store_true", help="also list the robots that are not arms, and why")
     robots.set_defaults(func=cmd_robots)
 
@@ -43,7 +42,7 @@ def cmd_robots(args: argparse.Namespace) -> int:
         keys = ("name", "dof", "task", "tip", "control_points", "self_pairs", "self_pairs_from")
         report = {"arms": [dict(zip(keys, r, strict=True)) for r in rows],
                   "not_arms": [{"name": n, "reason": why} for n, why in refused]}
-        print(json.dumps(report, indent=2))
+        print_json(report)
         return 0
     print(f"{'robot':<28}{'dof':>4}  {'task':<9}{'tip frame':<28}{'control points':<16}self pairs (link pairs checked)")
     for name, nv, task, tip, k, pairs, source in rows:

@@ -6,13 +6,12 @@ import argparse
 from pathlib import Path
 
 from previewctl.cli.common import (
-    EXIT_FAILED_RUN,
-    EXIT_USAGE,
     Commands,
+    ExitCode,
     ProgressBar,
+    add_json_option,
+    print_json,
     seed_value,
-    self_collision_text,
-    verdict_text,
 )
 from previewctl.control.params import CONTROLLER_NAMES
 from previewctl.files import atomic_folder, check_output_folder
@@ -20,6 +19,7 @@ from previewctl.sim.log import save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.sim.start import check_start, exact_evaluator
+from previewctl.sim.verdict import self_collision_text, verdict_text
 from previewctl.viz.figures import make_figures
 from previewctl.viz.replay import REPLAY_NAME, write_replay
 
@@ -32,8 +32,9 @@ def add_parser(commands: Commands) -> None:
         description="Simulate a scenario (TOML): progress on stderr, then a summary table; the log "
         "(run.npz, summary.json) and the figures go to --out. A run succeeds when it is free of collisions (with "
         "obstacles and with itself) and its largest hand error is at most the tolerance. Exit status: 0 success, "
-        f"{EXIT_FAILED_RUN} the run failed (a collision, a self-collision or a hand error over the tolerance), "
-        f"{EXIT_USAGE} bad input (a start configuration in collision included: refused before anything runs).",
+        f"{int(ExitCode.VERDICT_FAILED)} the run failed (a collision, a self-collision or a hand error over the "
+        f"tolerance), {int(ExitCode.USAGE)} bad input (a start configuration in collision included: refused before "
+        "anything runs).",
     )
     run.add_argument("scenario", help="scenario TOML file (see scenarios/)")
     run.add_argument("--controller", choices=CONTROLLER_NAMES,
@@ -53,6 +54,7 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
     run.add_argument("--view", action="store_true",
                      help=f"also write the 3-D replay (OUT/{REPLAY_NAME}, opens from disk in a browser)")
+    add_json_option(run, "the run's summary (summary.json) and the files written")
     run.set_defaults(func=cmd_run)
 
 
@@ -76,6 +78,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.view:
             written.append(write_replay(result, folder / REPLAY_NAME, scenario=scenario))
     npz_path, json_path, *figures = [out / p.relative_to(folder) for p in written]
+    code = ExitCode.OK if summary["success"] else ExitCode.VERDICT_FAILED
+    if args.json:
+        print_json({"summary": summary, "files": [str(p) for p in (npz_path, json_path, *figures)]})
+        return code
 
     def metre(value: float | None) -> str:
         return "-" if value is None else f"{value * 1e3:.2f} mm"
@@ -109,4 +115,4 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{'written':<26}{npz_path}, {json_path}")
     for figure in figures:
         print(f"{'':<26}{figure}")
-    return 0 if summary["success"] else EXIT_FAILED_RUN
+    return code

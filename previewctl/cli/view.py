@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from previewctl.cli.common import Commands
+from previewctl.cli.common import Commands, add_json_option, print_json
+from previewctl.errors import PreviewctlError
 from previewctl.sim.log import load_run
 from previewctl.sim.scenario import load_scenario
 from previewctl.viz.replay import DEFAULT_FPS, REPLAY_NAME, scenario_of, serve_replay, sibling_oracle, write_replay
@@ -30,11 +31,14 @@ def add_parser(commands: Commands) -> None:
                       help="instead of the file, show the run live on http://127.0.0.1:PORT (this machine only) "
                       "with a time slider, until Ctrl-C")
     view.add_argument("--port", type=int, default=8080, help="port of --serve (default 8080; the next free one)")
+    add_json_option(view, "the file written and its size")
     view.set_defaults(func=cmd_view)
 
 
 def cmd_view(args: argparse.Namespace) -> int:
     """Write the replay of RUN_DIR and print its path and size (or serve it live with --serve)."""
+    if args.serve and args.json:
+        raise PreviewctlError("--json reports the file written; --serve writes none: give one of them")
     scenario = load_scenario(args.scenario) if args.scenario else None
     if args.serve:
         folder = Path(args.run_dir)
@@ -42,5 +46,9 @@ def cmd_view(args: argparse.Namespace) -> int:
         serve_replay(result, scenario or scenario_of(result), oracle=sibling_oracle(folder, result), port=args.port)
         return 0
     out = write_replay(Path(args.run_dir), args.out, scenario=scenario, fps=args.fps)
-    print(f"written {out} ({out.stat().st_size / 1e6:.1f} MB): open it in a browser")
+    size = out.stat().st_size
+    if args.json:
+        print_json({"replay": str(out), "bytes": size})
+    else:
+        print(f"written {out} ({size / 1e6:.1f} MB): open it in a browser")
     return 0

@@ -52,8 +52,7 @@ preview pull, a gradient or zero), the QP is
   finds the smallest damper violations the joint bounds allow (one slack ``s_k ≥ 0`` per row, cost
   ``slack_weight · s_k²`` plus the joint term, without the hand term), and the task QP is solved with each
   row loosened by its slack. The largest slack [m/s] is reported. (Penalising the slacks inside the task QP
-  instead let the hand term buy a deeper approach: on a Panda bench scene link 3 went 0.2 mm into a ball
-  while the hand stayed on its path.)
+  instead lets the hand term buy a deeper approach: docs/decisions.md#damper-slacks-in-a-qp-of-their-own.)
 
 The solver is DAQP through ``qpsolvers``: a dense active-set method for small QPs, with wheels on PyPI for
 every CI platform, about 30 µs per solve at these sizes.

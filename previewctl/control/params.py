@@ -79,14 +79,10 @@ def controller_runs(names: Sequence[str], executions: Sequence[str]) -> list[tup
 
 
 SPATIAL_NEIGHBOURS = 16
-"""The default ``track_neighbours`` of a spatial arm. Its GA population (64 individuals, 7 genes projected onto a
-4-dimensional self-motion manifold) seldom holds any individual near the tracked target but the target itself:
-with the Panda's hand held still, none other within ``track_radius`` at 28 of 30 frames, so the target never
-climbed. On planar4 (2 genes) the GA gathers 40-54 individuals there after ten frames. Chosen on held-out scenes,
-``multi`` under the QP, success at 1 mm: Panda (scene seeds 1 and 2, 40 scenes) 28 → 29 (8 mutants) → 31 (16),
-and 29 → 29 with controller seed 1, within the spread of such runs; planar (scene seed 6, 30 scenes) 24 → 22 (8)
-and 23 (16), so none there. What the mutants clearly change is what the preview does alone, under the paper's
-eq. 19 (pseudo-inverse execution): on the same 40 held-out Panda scenes ``multi`` went from 15 to 22 successes."""
+"""The default ``track_neighbours`` of a spatial arm: mutants of the tracked target bred into each search, since
+a spatial arm's GA population (64 individuals, 7 genes projected onto a 4-dimensional self-motion manifold) seldom
+holds any other individual near it, so the target would not climb. Planar arms need none. How it was chosen: see
+docs/decisions.md#mutants-of-the-tracked-peak-on-spatial-arms."""
 
 PAPER_WEIGHTS: tuple[float, ...] = (0.3, 0.65, 0.05)
 """The paper's three-preview weights ``k_1, k_2, k_3`` (section 7.2)."""
@@ -137,7 +133,7 @@ class ControllerParams(Checked):
         feedback_gain: ``K_p`` on the hand error [1/s].
         step_correction: eq. 19's task term is corrected for the period ``dt`` it is applied over: the hand
             error predicted at ``t + dt`` (forward kinematics of ``q ⊕ q̇ dt``) is brought to what the
-            continuous law would leave, ``exp(−K_p dt) e`` (:func:`~previewctl.control.tracking.track`).
+            continuous law would leave, ``exp(−K_p dt) e`` (:func:`~previewctl.control.tracking.step_correction`).
             ``False`` is the paper's eq. 19 as printed (``ṙ_d(t) + K_p e`` held over the period).
         damping: ``λ_max`` of the damped least-squares inverse [m/rad] (0 disables damping).
         singular_threshold: ``ε``: damping starts when ``σ_min(J) < ε`` [m/rad].

@@ -9,28 +9,25 @@ follows one peak per imaginary arm:
 * the tracked peak is the best individual of the imaginary arm's search within ``track_radius`` (in
   joint space) of the previous target. The controller seeds each search with its last target, so
   the tracked peak stays in the population, and with ``track_neighbours`` mutants of it, so that it
-  climbs: on a spatial arm the population seldom holds another individual that close (Panda bench
-  scene 8: without them the target stayed at S ≈ 1700 for 2 s while the gradient from the same
-  start climbed to 5500);
+  climbs: on a spatial arm the population seldom holds another individual that close;
 * the imaginary arms form a chain, as the sequences of the paper's Fig. 3: arm ``i`` (at ``t + i t̃``)
   must be reachable from arm ``i - 1`` (the real arm for ``i = 1``) within ``t̃`` at the joint speed
   limits, ``|Δq_j| ≤ q̇max_j t̃``. At the first frame each arm starts from the one before it, and a
   peak that is lost (no individual left within ``track_radius``) is replaced by the best individual
-  within that reach of the arm before it, or, when none is, by the individual nearest to it. (The
-  earlier rule, the individual nearest to the lost target, could land on a basin radians away: on
-  bench scene 1 a target jumped 150° in ``q_3``, and the blend pulled the arm onto the obstacle.
-  Measured with ``multi`` under the QP, success < 1 mm: 22 → 25 of 30 held-out scenes, scene seed 1,
-  and 32 → 33 of the 50 bench scenes, no scene lost);
+  within that reach of the arm before it, or, when none is, by the individual nearest to it (the
+  individual nearest to the lost target could lie in a basin radians away);
 * a better peak elsewhere never takes over: the pull of eq. 21 is a descent of the joint-space
-  distance projected on the self-motion manifold, which stalls between basins (measured on
-  ``planar_free``: a switch to a peak twice as good across ``q2 = 0`` left the arm stuck at
-  ``S ≈ 300``). Changing basin deliberately is the job of a planned route (``reach``, and coherent ``multi``
-  where the route is planned: :mod:`previewctl.control.planner`), which checks the move;
+  distance projected on the self-motion manifold, which stalls between basins. Changing basin
+  deliberately is the job of a planned route (``reach``, and coherent ``multi`` where the route is
+  planned: :mod:`previewctl.control.planner`), which checks the move;
 * after every change of peak (and at the start) the pull is ramped in linearly over ``settle_frames``
   camera frames, so the arm does not lunge at a target the search has not settled on.
 
 The search itself is kept on the arm's own family (the elbow branch of a planar arm, see
 :attr:`previewctl.search.ga.OneStepGA.branch_lock`), so every candidate is on the arm's branch.
+
+What each rule changed, measured: docs/guide/controllers.md#preview-control-coherent-imaginary-arms and
+docs/decisions.md#mutants-of-the-tracked-peak-on-spatial-arms.
 """
 
 from __future__ import annotations

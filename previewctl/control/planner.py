@@ -46,20 +46,17 @@ ORACLE_OPTIONS = ReachOptions(resolution_deg=2.0, steps=50, max_step_cells=3, ma
 """The DP the oracle plans with by default: 2° grid, at least 50 steps over the rest of the path, no figure maps.
 Each plan raises the steps until a gene may move at :data:`ORACLE_GENE_SPEED` of its joint speed limit,
 coarsening the grid (4°, 8°, ...) when that many steps would not fit
-(:func:`~previewctl.search.reachability.grid.fast_enough`): on the 8 s bench scenes that leaves 2° and 50 steps
-(genes up to 65 % of their limit), on the paper's 50 s scenes it gives 4° and 120 steps (genes up to 50 %
-instead of 10 % with 50 steps at 2°)."""
+(:func:`~previewctl.search.reachability.grid.fast_enough`). What that gives on the bench and paper scenes:
+docs/guide/search.md#reachability-over-time."""
 ORACLE_GENE_SPEED = 0.5
-"""The share of a gene's joint speed limit the oracle's DP must allow at least. The rest is the hand task's:
-with plans at the full limit (tried), eq. 19 scaled the commands down and the oracle collided on 4 more of the
-50 bench scenes (98 % -> 90 % collision-free under eq. 19; 92 % at 1 mm under the QP either way)."""
+"""The share of a gene's joint speed limit the oracle's DP must allow at least. The rest is the hand task's: with
+plans at the full limit eq. 19 has no speed left for the hand (tried: docs/decisions.md#the-oracles-gene-speed)."""
 HORIZON_OPTIONS = ReachOptions(resolution_deg=4.0, steps=1, max_step_cells=3, map_times=0)
 """The DP ``horizon`` replans with: the bench witness's 4° grid; ``steps`` is set per plan (one per
 :data:`HORIZON_STEP` of the window)."""
 HORIZON_ROADMAP = RoadmapOptions(beam=16, children=8)
 """The sampled search ``horizon`` (and coherent ``reach``) replans a spatial arm with: a third of the oracle's beam and
-two thirds of its moves per node, for cost (a 6 s plan on the Panda bench scenes costs 0.58 s of CPU at the median,
-0.95 s at the 95th percentile); not tuned further."""
+two thirds of its moves per node, for cost (what a plan costs: docs/speed.md); not tuned further."""
 HORIZON_STEP = 0.16
 """[s] the DP's time step in ``horizon``'s plans (the oracle's 8 s / 50 steps on the bench scenes) ..."""
 HORIZON_MAX_STEPS = 24

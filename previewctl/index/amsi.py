@@ -2,7 +2,7 @@
 
 For each configuration, Pinocchio computes the kinematics once (joint placements and Jacobians);
 the task Jacobian ``J_n`` and the control-point Jacobians ``J_i`` are assembled from it for the whole
-batch (:class:`FrameKinematics`), then the linear algebra runs batched over the population too:
+batch (:class:`~previewctl.kinematics.FrameKinematics`), then the linear algebra runs batched over the population too:
 
 * ``N = I - J_n^+ J_n`` (eq. 3) from the SVD of ``J_n``: singular values below
   ``rank_tolerance * sigma_max(J_n)`` count as zero (``rank_tolerance`` defaults to ``1e-9``), and

@@ -211,8 +211,8 @@ def _load_source(source: str | os.PathLike[str], package_dirs: Sequence[str | os
     if shipped.is_file():
         srdf = shipped.with_suffix(".srdf")
         return _Found(text, *_load_urdf(shipped, package_dirs), shipped, srdf if srdf.is_file() else None)
-    if text.endswith(".urdf") or os.sep in text or Path(text).suffix:
-        path = Path(text)
+    path = urdf_path(text)
+    if path is not None:
         if not path.is_file():
             raise RobotLoadError(f"URDF file {text!r} does not exist")
         return _Found(path.stem, *_load_urdf(path, package_dirs), path)
@@ -221,6 +221,15 @@ def _load_source(source: str | os.PathLike[str], package_dirs: Sequence[str | os
     if text not in example_robots.ROBOTS:
         raise UnknownNameError("robot", text, (*shipped_robot_names(), *example_robot_names()))
     return _load_example_robot(text)
+
+
+def urdf_path(source: str | os.PathLike[str]) -> Path | None:
+    """The URDF file ``source`` names, or ``None`` when it is a robot name: anything but a shipped robot's name
+    that ends in ``.urdf``, holds a path separator or has a suffix is a file (which may not exist)."""
+    text = os.fspath(source)
+    if (shipped_robots_dir() / f"{text}.urdf").is_file():
+        return None
+    return Path(text) if text.endswith(".urdf") or os.sep in text or Path(text).suffix else None
 
 
 def _load_example_robot(name: str) -> _Found:

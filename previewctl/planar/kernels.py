@@ -3,7 +3,7 @@
 A kernel maps one block of links, ``a`` and ``b`` of shape ``(n, L, 3)`` [m] and radii ``(L,)`` [m], to
 ``(n, L)`` signed distances [m]; :func:`apply` runs it over blocks of about ``_BLOCK_LINKS`` links. Every
 operation inside is a numpy operation over the whole block: the blocks only keep the ~30 temporaries of a
-kernel in the CPU cache, which made the kernels 2-3x faster than one pass over 400,000 links.
+kernel in the CPU cache (measured: docs/decisions.md#planar-distance-kernels-blocks-and-throughput).
 
 The functions here take their obstacle as already-validated keyword arguments; the validated builders
 (``sphere_kernel`` ...) and one-shot functions (``to_sphere`` ...) are in :mod:`previewctl.planar.distance`,
@@ -23,11 +23,6 @@ _TINY = float(np.finfo(np.float64).tiny)
 # Below this value of sin^2 of the angle between two segments they count as parallel (see
 # `segment_distance`): the closed form for the interior point is then ill-conditioned.
 _PARALLEL_SIN2 = 1e-14
-
-# A kernel maps one block of links, ``a`` and ``b`` of shape ``(n, L, 3)``, to ``(n, L)`` signed
-# distances; `apply` runs it over blocks of about `_BLOCK_LINKS` links. Every operation inside
-# is a numpy operation over the whole block: the blocks only keep the ~30 temporaries of a kernel
-# in the CPU cache, which made the kernels 2-3x faster than one pass over 400,000 links.
 
 Kernel = Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
 _BLOCK_LINKS = 16384

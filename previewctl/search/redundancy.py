@@ -3,8 +3,8 @@
 For a hand target ``x`` the candidates of the search are the configurations with ``f(q) = x`` (the
 self-motion manifold). A :class:`RedundancyMap` parameterises them:
 
-* :class:`PlanarRedundancy` (planar arms of revolute z joints, the paper's section 4.3): the genes are
-  the first ``n - 2`` joint angles; they fix the origin ``w`` of joint ``n - 1`` (the "wrist"), and the
+* :class:`~previewctl.search.planar.PlanarRedundancy` (planar arms of revolute z joints, the paper's section 4.3):
+  the genes are the first ``n - 2`` joint angles; they fix the origin ``w`` of joint ``n - 1`` (the "wrist"), and the
   last two links reach from ``w`` to the target in closed form (two-link inverse kinematics). With
   link vectors ``a`` (joint ``n - 1`` to joint ``n``, length ``l_1``) and ``b`` (joint ``n`` to the tip,
   length ``l_2``) and ``d = x - w``::
@@ -19,8 +19,8 @@ self-motion manifold). A :class:`RedundancyMap` parameterises them:
   ``[-pi, pi)`` (then shifted by ``2 pi`` if that is needed to fit the joint limits; a value that fits no
   shift is unreachable too). Fully vectorised.
 
-* :class:`NewtonRedundancy` (any other arm): the genes are a full vector of ``nv`` joint angles within
-  the joint limits, used as the start of damped-least-squares Newton steps onto ``f(q) = target``::
+* :class:`~previewctl.search.newton.NewtonRedundancy` (any other arm): the genes are a full vector of ``nv`` joint
+  angles within the joint limits, used as the start of damped-least-squares Newton steps onto ``f(q) = target``::
 
       dq = J^T (J J^T + lambda^2 I)^-1 e,         q <- clip(integrate(q, dq), joint limits)
 
@@ -38,8 +38,8 @@ self-motion manifold). A :class:`RedundancyMap` parameterises them:
   deterministic function of the genes (with no ``q_seed``); ``q_seed`` replaces the start (a warm
   start, e.g. last frame's solution). There is a single branch.
 
-:func:`score` solves genes and evaluates AMSIP for the reachable ones; unreachable candidates get
-``S = evaluator.potential.collision_value`` (< 0): as in the paper, S < 0 exactly when the configuration
+:func:`~previewctl.search.scoring.score` solves genes and evaluates AMSIP for the reachable ones; unreachable
+candidates get ``S = evaluator.potential.collision_value`` (< 0): as in the paper, S < 0 exactly when the configuration
 collides *or* cannot reach the hand target.
 """
 

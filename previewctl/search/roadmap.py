@@ -20,9 +20,8 @@ time instead, reading the whole future as the planar DP does (non-causal, offlin
 * **The beam.** A successor's value is the bottleneck ``min S`` over every sample of its motion from ``q0``
   (AMSIP, eq. 18). Of every layer's feasible successors, half the ``beam`` are the best by value, skipping any
   within ``spread`` [rad] (largest joint difference) of one already kept; the other half are added farthest
-  first from every kept one. A beam kept by value alone crowded into the best region and lost the one plain
-  tracking stays in: on 20 held-out Panda bench scenes it found no motion on 3 (``qp`` finished one of them),
-  the mixed beam on none.
+  first from every kept one (a beam kept by value alone crowds into the best region and loses the one plain
+  tracking stays in: docs/guide/search.md#reachability-over-time).
 * **Goals** (optional: the imaginary arms' peaks of ``reach``, :class:`~previewctl.search.reachability.goals.Goals`).
   Each node's second successor heads for the best goal of the first goal time after the step, as a straight
   joint-space move arriving at that time (clipped to the speed limits). A goal is *reached* when a node of the

@@ -137,7 +137,8 @@ class RunResult:
         ``self_influence_distance``, a lower bound at least that above it; ``None`` without self pairs),
         ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
-        ``cycle_time_median`` [s], ``cycle_time_max`` [s], ``execution``, ``composition``, ``max_slack`` [m/s].
+        ``cycle_time_median``, ``cycle_time_p99``, ``cycle_time_max`` [s], ``execution``, ``composition``,
+        ``max_slack`` [m/s].
         """
         k, s, e = self.collision_index, self.self_collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))
@@ -174,6 +175,7 @@ class RunResult:
             "max_abs_qdot": float(np.abs(self.qdot).max()),
             "max_qdot_ratio": float(ratio.max()) if ratio.size else 0.0,
             "cycle_time_median": float(np.median(self.cycle_time)),
+            "cycle_time_p99": float(np.percentile(self.cycle_time, 99)),
             "cycle_time_max": float(self.cycle_time.max()),
             "execution": self.execution,
             "composition": self.composition,

@@ -12,8 +12,7 @@ answers it exactly on a grid, for planar arms, offline and non-causally (it read
   signed elbow angle ``β`` in ``[-π, π]`` never wraps, and ``q_(n-1)``, which the closed form gives
   modulo 2π as ``a`` in ``[-π, π)``, is carried by a *state* ``(cell, m)``: the arm is at ``a + 2π m``,
   and only the representatives within the joint's limits exist. (Without this a motion can wind a
-  ``±2π`` joint past its limit: the first version's best motion on ``paper_planar`` took ``q_3`` to
-  ``-400°``, and a controller following it was stopped by the limit.)
+  ``±2π`` joint past its limit: docs/decisions.md#joint-windings-on-the-reachability-grid.)
 * **Time.** ``N`` steps of ``Δt = duration / N`` [s]; layer ``k`` holds the cells at ``t_k = t_0 + k Δt``
   with the obstacles and the hand target of that time. Layer 0 of the dynamic programme is the
   start configuration ``q0`` itself (not a grid cell); the grid at ``t_0`` is only used for the
