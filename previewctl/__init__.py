@@ -18,9 +18,11 @@ Everything a first run needs is here, one import::
         q = pc.integrate(robot, q, qdot, dt)
 
 The subpackages hold the rest (``previewctl.robot``, ``index``, ``scene``, ``planar``, ``search``,
-``control``, ``sim``, ``viz``, ``cli``); figures need ``previewctl.viz`` (matplotlib), which this
-import does not load.
+``control``, ``sim``, ``viz``, ``cli``); figures need ``previewctl.viz`` and the ``[viz]`` extra
+(matplotlib), which this import does not load. Diagnostics go to the ``previewctl`` logger.
 """
+
+import logging
 
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller
@@ -56,6 +58,8 @@ from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 
 __version__ = "0.1.0"
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())  # diagnostics only where the application asks
 
 __all__ = [
     "CONTROLLER_NAMES",

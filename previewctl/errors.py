@@ -71,6 +71,10 @@ class OutputError(PreviewctlError, ValueError):
     """An output file or folder that cannot be written (a missing parent, a folder where a file goes, ...)."""
 
 
+class MissingExtraError(PreviewctlError, ImportError):
+    """An optional dependency is not installed; the message names it and the extra that installs it."""
+
+
 class IgnoredSettingWarning(UserWarning):
     """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
     controllers); the run goes on without it, and its log records it."""

@@ -4,7 +4,7 @@ Folders are layers. Every *unit* of the package (a subpackage such as ``robot``,
 such as ``path``) sits in one layer, and a module may import from its own layer and the layers before
 it, never from a later one (that would be reaching back up the flow)::
 
-    shared ground (errors, types, files, validation) -> path -> robot, kinematics -> scene -> planar
+    shared ground (errors, extras, types, files, validation) -> path -> robot, kinematics -> scene -> planar
     -> index -> search -> control -> sim -> viz -> bench -> cli (and the public API, __init__)
 
 ``scene`` comes after ``robot`` because its clearance measures the robot's links, and ``planar`` (pure
@@ -31,7 +31,7 @@ API = "__init__"
 """The unit of the package's own ``__init__`` (the public API), which imports from every layer."""
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "types", "files", "validation"),
+    ("errors", "extras", "types", "files", "validation"),
     ("path",),
     ("robot", "kinematics"),
     ("scene",),

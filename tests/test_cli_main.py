@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import importlib.metadata
 import json
+import logging
 import re
 from pathlib import Path
 from typing import Any
@@ -99,6 +100,19 @@ def test_an_ignored_setting_is_one_warning_line_and_recorded(tmp_path: Path,
     assert "IgnoredSettingWarning" not in err and "make_controller" not in err
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["composition"] == "none (Tracking), execution pseudoinverse, ignored: preview_time = 2.0"
+
+
+def test_verbose_logs_the_library_diagnostics_to_stderr_and_only_while_it_runs(
+    capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["index", "--robot", "planar4", "--q", "0.3,0.3,0.3,0.3"]
+    code, out, err = run_main(["-v", *argv], capsys)
+    assert code == 0 and "S =" in out
+    assert "previewctl: previewctl.index.load: robot 'planar4': 4 joints, task planar, tip 'tip'" in err
+    log = logging.getLogger("previewctl")
+    assert [type(h) for h in log.handlers] == [logging.NullHandler] and log.level == logging.NOTSET
+    code, out, err = run_main(argv, capsys)
+    assert code == 0 and err == ""  # the library itself prints nothing
 
 
 # ---------------------------------------------------------------------------------------- old spellings

@@ -29,6 +29,7 @@ from previewctl.scene.motion import ConstantVelocity, Static
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.search.planar import PlanarRedundancy
 from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachResult, reach_over_time
+from previewctl.search.reachability.families import two_or_more
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_model, targets
 from previewctl.search.redundancy import wrap_angle
@@ -733,3 +734,14 @@ def test_plan_timing_names_the_bad_value(field: str, value: object, message: str
     """The planner's timing (the oracle's and horizon's, and the routes') is checked by the validation layer."""
     with pytest.raises(ConfigurationError, match=message):
         PlanTiming(**{field: value})  # type: ignore[arg-type]
+
+
+def test_two_or_more_bits_matches_a_popcount_on_every_bit_position() -> None:
+    """The families' bit test (numpy 1.x has no ``bitwise_count``) against Python's own count of set bits."""
+    rng = np.random.default_rng(3)
+    singles = [1 << k for k in range(64)]
+    values = [0, *singles, *(a | b for a, b in itertools.combinations(singles[::7], 2)), 2**64 - 1,
+              *(int(v) for v in rng.integers(0, 2**64 - 1, 200, dtype=np.uint64, endpoint=True))]
+    F = np.array(values, dtype=np.uint64)
+    expected = [bin(v).count("1") >= 2 for v in values]
+    assert two_or_more(F).tolist() == expected and sum(expected) > 200 and not any(two_or_more(F[1:65]))

@@ -29,6 +29,6 @@ def test_readme_python_examples_run(
 
 def test_ci_runs_the_readme_test_command() -> None:
     ci = (README.parent / ".ci" / "run").read_text()
-    command = 'python3 -m venv .venv && .venv/bin/pip install -q ".[test]" && .venv/bin/python -m pytest'
+    command = 'python3 -m venv .venv && .venv/bin/pip install -q ".[all,test]" && .venv/bin/python -m pytest'
     assert command in README.read_text() and command in ci
     assert "previewctl paper" in README.read_text()

@@ -1,16 +1,12 @@
 """Tests of :mod:`previewctl.robot` (model, load, geometry) and of scene files
-(:mod:`previewctl.scene.file`): defaults, options, typed errors, packaging (the wheel ships the robots)."""
+(:mod:`previewctl.scene.file`): defaults, options, typed errors, the shipped robots' folder
+(the wheel that ships it: ``tests/test_packaging.py``)."""
 
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import re
-import shutil
 import signal
-import subprocess
-import sys
-import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -545,63 +541,6 @@ def test_scene_file_missing(tmp_path: Path) -> None:
 def test_shipped_robots_dir() -> None:
     assert (shipped_robots_dir() / "planar4.urdf").is_file()
     assert "planar4" in shipped_robot_names()
-
-
-WHEEL_TIMEOUT = 600.0
-"""[s] for the wheel build and for the import from it: seconds are typical, a loaded shared host is slow."""
-
-
-def test_shipped_robot_found_after_wheel_install(tmp_path: Path) -> None:
-    """Build a wheel from a snapshot of the tree, unpack it elsewhere, load "planar4" from there.
-
-    It takes a few seconds. It never skips: without hatchling (the ``test`` extra) it fails, and a
-    build or import that outlasts the generous timeout fails with ``TimeoutExpired``.
-    """
-    if importlib.util.find_spec("hatchling") is None:
-        pytest.fail("the wheel test needs hatchling: install the test extra (pip install '.[test]')")
-    src = tmp_path / "src"
-    src.mkdir()
-    shutil.copy(REPO / "pyproject.toml", src)
-    for folder in ("previewctl", "robots", "scenarios"):
-        if (REPO / folder).is_dir():
-            shutil.copytree(REPO / folder, src / folder, ignore=shutil.ignore_patterns("__pycache__"))
-    if (REPO / "README.md").is_file():
-        shutil.copy(REPO / "README.md", src)
-    else:  # pyproject names a readme; its absence is not what this test is about
-        (src / "README.md").write_text("previewctl\n")
-    dist = tmp_path / "dist"
-    build = subprocess.run(
-        [sys.executable, "-m", "hatchling", "build", "-t", "wheel", "-d", str(dist)],
-        cwd=src,
-        capture_output=True,
-        text=True,
-        timeout=WHEEL_TIMEOUT,
-    )
-    assert build.returncode == 0, build.stderr
-    (wheel,) = dist.glob("*.whl")
-    with zipfile.ZipFile(wheel) as archive:
-        assert "previewctl/robots/planar4.urdf" in archive.namelist()
-        assert "previewctl/robots/planar4.srdf" in archive.namelist()  # its self pairs: none
-        assert "previewctl/scenarios/paper_planar.toml" in archive.namelist()
-        archive.extractall(tmp_path / "site")
-    script = (
-        "import sys; sys.path.insert(0, sys.argv[1]);"
-        "import previewctl.index.load as r;"
-        "robot = r.load_robot('planar4');"
-        "print(r.shipped_robots_dir()); print(robot.nq); print(robot.self_pairs.source.split()[0])"
-    )
-    run = subprocess.run(
-        [sys.executable, "-I", "-c", script, str(tmp_path / "site")],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=WHEEL_TIMEOUT,
-    )
-    assert run.returncode == 0, run.stderr
-    shipped, nq, pairs_from = run.stdout.split()
-    assert pairs_from == "SRDF"  # the wheel's planar4.srdf, not sampled pairs
-    assert Path(shipped).resolve() == (tmp_path / "site" / "previewctl" / "robots").resolve()
-    assert nq == "4"
 
 
 # ---------------------------------------------------------------------------- no collision geometry

@@ -10,6 +10,7 @@ arrives, so a sweep stopped at any point resumes with the runs that are missing.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -28,8 +29,11 @@ from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
 from previewctl.errors import ParameterError, PreviewctlError, UnknownNameError
+from previewctl.extras import require
 from previewctl.validation import Checked, Count, Integer, Text
 from previewctl.viz.replay import REPLAY_NAME
+
+_log = logging.getLogger(__name__)
 
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 1 << 28, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
 """glibc settings of the local cluster's worker processes [bytes]. Dask starts its workers with
@@ -152,6 +156,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
     results, scenes_file = out / RESULTS_NAME, out / SCENES_NAME
     todo, planned = missing_runs(sweep, results)
     outcome = SweepOutcome(planned=planned, skipped=planned - len(todo))
+    _log.info("sweep: %d runs planned, %d already in %s", planned, outcome.skipped, results)
     if on_start is not None:
         on_start(len(todo))
     known = {(r["robot"], r["index"], r["settings"]): r for r in read_records(scenes_file)}
@@ -171,6 +176,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
         spec, key = futures[future]
         if future.status != "finished":
             outcome.failed.append((spec, f"{type(future.exception()).__name__}: {future.exception()}"))
+            _log.warning("run %s failed: %s", spec, outcome.failed[-1][1])
             continue
         record = future.result()
         if key not in fetched:
@@ -213,9 +219,14 @@ def keep_runs(out: Path, client: Any, failures: int, on_done: Callable[[], None]
 @contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
     """A Dask client: of the cluster at ``scheduler``, or of a ``LocalCluster`` of ``workers`` processes
-    (default: one per core), one thread each, without a dashboard, started with :data:`WORKER_MALLOC`."""
-    from distributed import Client, LocalCluster
+    (default: one per core), one thread each, without a dashboard, started with :data:`WORKER_MALLOC`.
 
+    Raises:
+        MissingExtraError: Dask is not installed.
+    """
+    distributed = require("distributed", "bench", "a benchmark sweep")
+    dask = require("dask", "bench", "a benchmark sweep")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if scheduler is not None:
         with Client(scheduler) as client:
             yield client
@@ -223,8 +234,6 @@ def dask_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     count = workers if workers is not None else (os.cpu_count() or 1)
     if count < 1:
         raise ParameterError(f"workers must be >= 1, got {count!r}")
-    import dask
-
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_MALLOC}
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), \
             LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \

@@ -5,10 +5,12 @@ Bad input -> one line on stderr, exit 2; every exit code is in :class:`~previewc
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib.metadata
+import logging
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any, NoReturn, TextIO
 
 from previewctl.cli import bench, index, paper, reach_map, robots, run, view
@@ -47,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action=VersionAction, help="print the installed version and exit")
+    parser.add_argument("-v", "--verbose", action="store_true", dest="log_info",  # robots has its own --verbose
+                        help="log the library's diagnostics (robot, self pairs, controller, runs) to stderr")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
     for command in (robots, index, run, paper, map_command, reach_map, view, bench):
         command.add_parser(commands)
@@ -62,11 +66,30 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
+@contextlib.contextmanager
+def _diagnostics(enabled: bool) -> Iterator[None]:
+    """With ``enabled`` (``-v``), the library's log records of level INFO and above on stderr, one line each."""
+    if not enabled:
+        yield
+        return
+    log = logging.getLogger("previewctl")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("previewctl: %(name)s: %(message)s"))
+    level = log.level
+    log.addHandler(handler)
+    log.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(level)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``previewctl`` command."""
     args = build_parser().parse_args(argv)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _diagnostics(args.log_info):
             warnings.showwarning = _show_warning
             return int(args.func(args))
     except PreviewctlError as exc:

@@ -26,7 +26,8 @@ def add_parser(commands: Commands) -> None:
 
 def cmd_robots(args: argparse.Namespace) -> int:
     """List the robots that load as arms (with ``--verbose``, the others with the reason)."""
-    names = [*shipped_robot_names(), *(example_robot_names() if args.all else FEATURED)]
+    known = example_robot_names()  # empty without the [robots] extra
+    names = [*shipped_robot_names(), *(known if args.all else [n for n in FEATURED if n in known])]
     rows, refused = [], []
     for name in tqdm(names, desc="loading", unit="robot", leave=False, disable=not is_terminal(sys.stderr)):
         try:
@@ -52,4 +53,6 @@ def cmd_robots(args: argparse.Namespace) -> int:
             print(f"{name:<28}{why}")
     elif refused:
         print(f"\n{len(refused)} more do not load as arms ({', '.join(n for n, _ in refused)}); --verbose says why")
+    if not known:
+        print("\nexample-robot-data's arms (panda, ur5, ...) need: pip install 'previewctl[robots]'")
     return 0

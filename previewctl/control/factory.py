@@ -34,6 +34,7 @@ stream (``Generator.spawn``), so the arms are independent and the same seed give
 
 from __future__ import annotations
 
+import logging
 import warnings
 from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, fields
@@ -74,6 +75,8 @@ from previewctl.scene.shapes import Scene
 from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
 from previewctl.search.planar import PlanarRedundancy
+
+_log = logging.getLogger(__name__)
 
 Seed = int | np.random.Generator | None
 """An ``int`` seed, a ``numpy.random.Generator``, or ``None`` (see :func:`make_controller`)."""
@@ -185,6 +188,7 @@ def make_controller(
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
     parts = compose(spec, robot, scene, evaluator, rng, search_factory=search_factory)
+    _log.info("controller %s", parts.composition)
     if parts.composition.ignored:
         warnings.warn(f"controller {spec.name!r} does not use {'; '.join(parts.composition.ignored)}: ignored",
                       IgnoredSettingWarning, stacklevel=2)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import os
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -45,6 +46,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.errors import RobotLoadError, UnknownNameError
+from previewctl.extras import require
 from previewctl.index.amsi import avoidance
 from previewctl.robot.chain import HandFrames, hand_frames, split_joints
 from previewctl.robot.geometry import body_name, keep_links, mesh_exists, prepare_geometry, select_guarded_links
@@ -54,6 +56,7 @@ from previewctl.robot.self_pairs import SelfPairs, find_self_pairs
 from previewctl.robot.xml import robot_root
 
 _TOOL_NAME_HINTS = ("tcp", "tool0", "end_effector", "ee_link")
+_log = logging.getLogger(__name__)
 
 
 def shipped_robots_dir() -> Path:
@@ -148,6 +151,8 @@ def load_robot(
     ranks = _structural_ranks(robot)
     planar = _planar_chain(robot) if chosen_task == "planar" and planar_ok else None
     pairs = _self_pairs(found, model, every_link, geometry, locked, srdf)
+    _log.info("robot %r: %d joints, task %s, tip %r, control points %s, locked %s, geometry %s", name, model.nv,
+              chosen_task, tip_frame, list(points), list(locked), geometry)
     return Robot(name, model, collision_model, tip_frame, chosen_task, points, links, ranks, planar, pairs)
 
 
@@ -211,9 +216,10 @@ def _load_source(source: str | os.PathLike[str], package_dirs: Sequence[str | os
         if not path.is_file():
             raise RobotLoadError(f"URDF file {text!r} does not exist")
         return _Found(path.stem, *_load_urdf(path, package_dirs), path)
-    known = example_robot_names()
-    if text not in known:
-        raise UnknownNameError("robot", text, (*shipped_robot_names(), *known))
+    example_robots = require("example_robot_data", "robots",
+                             f"robot {text!r} (not a shipped robot: {', '.join(shipped_robot_names())})")
+    if text not in example_robots.ROBOTS:
+        raise UnknownNameError("robot", text, (*shipped_robot_names(), *example_robot_names()))
     return _load_example_robot(text)
 
 
@@ -231,8 +237,7 @@ def _load_example_robot(name: str) -> _Found:
     meshes, no SRDF: 2-20x faster), else through the loader. A floating base its loader adds is left out:
     it would be locked at the identity anyway. Its SRDF, if it ships one, sits next to its URDF
     (``<package>/<srdf_subpath>/<srdf_filename>``, e.g. ``panda_description/srdf/panda.srdf``)."""
-    from example_robot_data import robots_loader
-
+    robots_loader = require("example_robot_data.robots_loader", "robots", f"robot {name!r}")
     loader = robots_loader.ROBOTS[name]
     direct = bool(loader.urdf_filename) and "__init__" not in vars(loader)
     relative = os.path.join(loader.path, loader.urdf_subpath, loader.urdf_filename)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -47,6 +48,8 @@ from previewctl.files import atomic_write_bytes
 from previewctl.robot.joints import JointFacts
 from previewctl.robot.xml import robot_root
 from previewctl.types import IntArray
+
+_log = logging.getLogger(__name__)
 
 LinkPair = tuple[str, str]
 """Two link names, the one nearer the base first."""
@@ -152,8 +155,10 @@ def find_self_pairs(
         screen = cached if cached is not None else _screen(model, geoms, candidates, names, sampling)
         if key is not None and cached is None:
             _store(key, screen)
+        _log.debug("self-pair screen %s", "from the cache" if cached is not None else "computed")
     dropped = {*screen.always, *screen.rigid}
     kept = [(i, j) for i, j in candidates if (names[i], names[j]) not in dropped]
+    _log.info("self pairs: %d geometry pairs checked (%s)", len(kept), source)
     return _build(geoms, kept, names, kind, source, screen)
 
 
@@ -331,5 +336,5 @@ def _store(key: str, screen: Screen) -> None:
     try:
         cache_dir().mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(_cache_file(key), text.encode("utf-8"))
-    except OSError:
-        pass  # a read-only home or a full disk: the pairs are computed again next time
+    except OSError as exc:  # a read-only home or a full disk: the pairs are computed again next time
+        _log.info("self-pair cache not written to %s: %s", cache_dir(), exc)

@@ -21,6 +21,7 @@ your own loop gets the same numbers from the same calls.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from typing import Any
@@ -40,6 +41,8 @@ from previewctl.sim.scenario import Scenario, Verdict
 from previewctl.sim.start import check_start
 from previewctl.sim.start import exact_evaluator as exact_evaluator_of
 from previewctl.types import Array, IntArray
+
+_log = logging.getLogger(__name__)
 
 __all__ = ["Progress", "frame_index", "simulate"]  # frame_index lives in control.controller now
 
@@ -98,6 +101,7 @@ def simulate(
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
     log = _Log(scenario.timing.steps + 1, robot, links, exact_evaluator.robot.self_pairs.pair_links)
     count = _run(scenario, controller, exact_evaluator, log, progress, stop_on_collision)
+    _log.info("run %r with %s: %d of %d steps", scenario.name, controller.name, count, scenario.timing.steps)
     return RunResult(
         scenario=scenario.name,
         controller=controller.name,

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from previewctl.extras import require
 from previewctl.files import atomic_write
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle
@@ -57,8 +58,7 @@ def animate_gif(result: RunResult, scenario: Scenario, path: str | os.PathLike[s
 
 def _frames(result: RunResult, scenario: Scenario, idx: NDArray[np.int_]) -> list[Any]:
     """One palette image per logged step in ``idx``."""
-    from PIL import Image
-
+    Image = require("PIL.Image", "viz", "the GIF animation")
     plt = pyplot()
     points = arm_points(scenario.robot, result.q[idx])
     desired = scenario.path.position(np.linspace(scenario.path.start_time, scenario.path.end_time, 200))

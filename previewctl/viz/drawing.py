@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
+from previewctl.extras import require
 from previewctl.robot.model import Robot
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 from previewctl.types import Array
@@ -24,9 +25,13 @@ COLLISION_COLOUR = "#d62728"
 
 
 def pyplot() -> Any:
-    """``matplotlib.pyplot`` on the Agg backend (imported on first use: importing previewctl stays cheap)."""
-    import matplotlib
+    """``matplotlib.pyplot`` on the Agg backend (imported on first use: importing previewctl stays cheap). Every
+    figure starts here, so a missing matplotlib is reported here, with the extra that installs it.
 
+    Raises:
+        MissingExtraError: matplotlib is not installed.
+    """
+    matplotlib = require("matplotlib", "viz", "drawing figures")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

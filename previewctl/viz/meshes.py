@@ -14,14 +14,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
-import trimesh
 from numpy.typing import NDArray
 
 from previewctl.errors import PreviewctlError
+from previewctl.extras import require
 from previewctl.types import Array
+
+if TYPE_CHECKING:
+    from trimesh import Trimesh
 
 PLANE_THICKNESS = 0.002
 """Thickness [m] of the square drawn for a half-space or a plane."""
@@ -48,11 +53,20 @@ class Part:
         return np.ptp(self.vertices, axis=0).astype(float)
 
 
-def _part(mesh: trimesh.Trimesh, rgba: tuple[float, float, float, float]) -> Part:
+def _trimesh() -> ModuleType:
+    """trimesh, imported on first use (a core install has no ``[viz]``).
+
+    Raises:
+        MissingExtraError: trimesh is not installed.
+    """
+    return require("trimesh", "viz", "the browser replay's meshes")
+
+
+def _part(mesh: Trimesh, rgba: tuple[float, float, float, float]) -> Part:
     return Part(np.ascontiguousarray(mesh.vertices, np.float32), np.ascontiguousarray(mesh.faces, np.uint32), rgba)
 
 
-def shape_mesh(shape: coal.CollisionGeometry, plane_size: float = 2.0) -> trimesh.Trimesh:
+def shape_mesh(shape: coal.CollisionGeometry, plane_size: float = 2.0) -> Trimesh:
     """The surface of a Coal ``shape`` in its own frame, as a triangle mesh.
 
     Args:
@@ -61,7 +75,9 @@ def shape_mesh(shape: coal.CollisionGeometry, plane_size: float = 2.0) -> trimes
 
     Raises:
         PreviewctlError: a Coal shape this adapter does not know (its type is named).
+        MissingExtraError: trimesh is not installed.
     """
+    trimesh = _trimesh()
     if isinstance(shape, coal.Sphere):
         return trimesh.creation.icosphere(_SPHERE_SUBDIVISIONS, radius=shape.radius)
     if isinstance(shape, coal.Ellipsoid):
@@ -92,7 +108,7 @@ def shape_mesh(shape: coal.CollisionGeometry, plane_size: float = 2.0) -> trimes
     )
 
 
-def _square(normal: Array, offset: float, size: float) -> trimesh.Trimesh:
+def _square(normal: Array, offset: float, size: float) -> Trimesh:
     """A thin square of side ``size`` [m] on the plane ``n . x = offset``, centred on the point nearest the origin."""
     n = normal / np.linalg.norm(normal)
     helper = np.eye(3)[int(np.argmin(np.abs(n)))]
@@ -101,7 +117,7 @@ def _square(normal: Array, offset: float, size: float) -> trimesh.Trimesh:
     transform = np.eye(4)
     transform[:3, :3] = np.column_stack([u, np.cross(n, u), n])
     transform[:3, 3] = offset * n
-    return trimesh.creation.box(extents=(size, size, PLANE_THICKNESS), transform=transform)
+    return _trimesh().creation.box(extents=(size, size, PLANE_THICKNESS), transform=transform)
 
 
 def shape_parts(
@@ -121,12 +137,16 @@ def file_parts(
 
     Returns:
         The parts, or ``None`` when trimesh cannot read the file (the caller falls back to Coal's mesh).
+
+    Raises:
+        MissingExtraError: trimesh is not installed.
     """
+    trimesh = _trimesh()
     try:
         scene = trimesh.load_scene(str(path))
     except Exception:  # trimesh raises many types (ValueError, KeyError, import errors of optional readers)
         return None
-    by_colour: dict[tuple[float, float, float, float], list[trimesh.Trimesh]] = {}
+    by_colour: dict[tuple[float, float, float, float], list[Trimesh]] = {}
     for node in scene.graph.nodes_geometry:  # each placed instance of a geometry, in the file's frame
         transform, name = scene.graph[node]
         mesh = scene.geometry[name]
@@ -144,7 +164,7 @@ def file_parts(
     return tuple(parts) or None
 
 
-def _colour(mesh: trimesh.Trimesh, default: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+def _colour(mesh: Trimesh, default: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
     """The main colour of a loaded mesh's material (RGBA in [0, 1]), or ``default``."""
     material = getattr(mesh.visual, "material", None)
     main = getattr(material, "main_color", None)

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from previewctl.errors import PreviewctlError
+from previewctl.extras import require
 from previewctl.files import atomic_write_bytes
 from previewctl.sim.log import RunResult, load_run
 from previewctl.sim.paper import shipped_scenarios_dir
@@ -53,8 +54,7 @@ def frame_steps(t: Array, fps: float, extra: int | None = None) -> Array:
 @contextlib.contextmanager
 def _server(port: int, quiet: bool) -> Iterator[Any]:
     """A viser server on 127.0.0.1 (port 0: any free port), stopped on exit; ``quiet`` silences its messages."""
-    import viser
-
+    viser = require("viser", "viz", "the browser replay")
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         server = viser.ViserServer(host="127.0.0.1", port=port, verbose=not quiet)
     try:
@@ -179,6 +179,7 @@ def write_replay(
 
     Raises:
         PreviewctlError: no run in the folder, no scenario for it, or a file that cannot be written.
+        MissingExtraError: viser or trimesh is not installed (``pip install 'previewctl[viz]'``).
     """
     if isinstance(run, RunResult):
         if path is None:

@@ -56,7 +56,7 @@ def end_families(fwd: Forward, model: GridModel, times: Array, last_state: int, 
     labels = components(fwd.layers[K - 1], reachable[K - 1], model, cross_beta)
     A = _leads_to(fwd, reachable, bits(labels))
     shared = [np.uint64(0)] + [_shared_bits(A[k]) for k in range(1, K + 1)]
-    q0_many = int(np.bitwise_count(np.bitwise_or.reduce(A[1][fwd.start]))) >= 2
+    q0_many = bool(two_or_more(np.bitwise_or.reduce(A[1][fwd.start], keepdims=True))[0])
     many = [q0_many] + [bool(shared[k]) for k in range(1, K + 1)]
     families = []
     for label in range(int(labels.max()) + 1):
@@ -126,7 +126,7 @@ def _forward_fate(problem: Problem, first: Layer, F: Bits) -> tuple[Bits, Bits]:
 
 def _shared_bits(F: Bits) -> np.uint64:
     """The OR of the states that hold two or more families: the families that share a state."""
-    multi = F[np.bitwise_count(F) >= 2]
+    multi = F[two_or_more(F)]
     return np.bitwise_or.reduce(multi) if multi.size else np.uint64(0)
 
 
@@ -153,6 +153,12 @@ def bits(labels: IntArray) -> Bits:
     capped = np.minimum(labels, MAX_FAMILY_BITS - 1)
     return np.where(labels >= 0, np.left_shift(np.uint64(1), np.maximum(capped, 0).astype(np.uint64)),
                     np.uint64(0)).astype(np.uint64)
+
+
+def two_or_more(F: Bits) -> BoolArray:
+    """Whether each entry has two or more bits set (``x & (x - 1)`` clears the lowest one; numpy 1.x has no
+    ``bitwise_count``)."""
+    return (F & (F - np.uint64(1))) != 0
 
 
 def family_bit(label: int) -> np.uint64:
