@@ -1,13 +1,14 @@
-"""Preview control over seeds: every controller on a scene, seeds 0..N-1, one table per scene.
+"""Preview control over seeds: every controller on a scene, over the given seeds, one table per scene.
 
-For each (scene, controller): how many seeds succeeded (collision-free and max hand error < 5 mm), how
-many finished collision-free, the median time of the first collision (over the seeds that collided), the
-worst hand error over all seeds, and the mean S over the runs. Runs go to a process pool (``--jobs``,
+For each (scene, controller): how many seeds succeeded (free of collisions with obstacles and of self-collision,
+and max hand error < 5 mm), how many finished collision-free, the median time of the first collision (over the
+seeds that collided), the worst hand error over all seeds, and the mean S over the runs. Runs go to a process pool
+(``--workers``,
 default: the number of cores). A controller that draws no random numbers (not one of
 ``SEEDED_CONTROLLERS``) gives the same run for every seed, so it runs once and counts for every seed
 (``run_seed``).
 
-Run: ``python benchmarks/bench_preview.py [--seeds 10] [--controllers none,multi,...] [scenario.toml ...]``
+Run: ``python benchmarks/bench_preview.py [--seed 0-9] [--controller none,multi,...] [scenario.toml ...]``
 (default scenes: the shipped planar scenes). ``--set key=value`` overrides a controller parameter,
 e.g. ``--set coherent=false`` for the paper-literal eqs. 20/21, ``--set execution=pseudoinverse`` for the
 paper's eq. 19 instead of the QP.
@@ -25,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from previewctl.cli.common import seed_list
 from previewctl.control.params import (
     CONTROLLER_NAMES,
     ControllerParams,
@@ -65,7 +67,7 @@ def run_one(job: tuple[str, str, int, dict[str, str]]) -> tuple[str, str, int, d
     summary = result.summary()
     S = np.asarray(result.S)
     return path, controller, seed, {
-        "collided": float(summary["collided"]),
+        "collided": float(summary["collided"] or summary["self_collided"]),
         "collision_time": float(summary["collision_time"]) if summary["collided"] else np.nan,
         "max_hand_error": float(summary["max_hand_error"]),
         "mean_S": float(np.mean(S[S > 0])) if np.any(S > 0) else 0.0,
@@ -75,16 +77,18 @@ def run_one(job: tuple[str, str, int, dict[str, str]]) -> tuple[str, str, int, d
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", help="scenario files (default: the shipped planar scenes)")
-    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
-    parser.add_argument("--controllers", default=",".join(CONTROLLER_NAMES), help="comma-separated list")
+    parser.add_argument("--seed", type=seed_list, default=tuple(range(10)), metavar="SEEDS",
+                        help="controller seeds: a comma list or ranges, e.g. 0-9 (default 0-9)")
+    parser.add_argument("--controller", default=",".join(CONTROLLER_NAMES), metavar="NAMES",
+                        help="comma-separated controllers (default: all)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="controller parameter")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N", help="worker processes")
     args = parser.parse_args()
     scenes = [str(Path(s)) for s in args.scenes] or [str(shipped_scenarios_dir() / s) for s in DEFAULT_SCENES]
     if any("=" not in item for item in args.set):
         parser.error(f"--set takes KEY=VALUE, got {next(item for item in args.set if '=' not in item)!r}")
     settings = dict(item.split("=", 1) for item in args.set)
-    controllers = args.controllers.split(",")
+    controllers = args.controller.split(",")
     try:  # bad settings, scenes or names: one line, before any run
         for scene in scenes:
             _override(load_scenario(scene), settings)
@@ -93,15 +97,16 @@ def main() -> None:
     except PreviewctlError as exc:
         sys.exit(f"bench_preview: {exc}")
     # a controller that draws no random numbers makes the same run for every seed: run it once, count it per seed
-    jobs = [(s, c, seed, settings) for s in scenes for c in controllers for seed in range(args.seeds)
-            if run_seed(c, seed) == seed]
+    seeds = args.seed
+    jobs = [(s, c, seed, settings) for s in scenes for c in controllers
+            for seed in dict.fromkeys(run_seed(c, k) for k in seeds)]
     outcomes: dict[tuple[str, str], list[dict[str, float]]] = {}
-    with ProcessPoolExecutor(args.jobs) as pool:
+    with ProcessPoolExecutor(args.workers) as pool:
         for path, controller, seed, outcome in pool.map(run_one, jobs):
-            copies = sum(run_seed(controller, other) == seed for other in range(args.seeds))
+            copies = sum(run_seed(controller, other) == seed for other in seeds)
             outcomes.setdefault((path, controller), []).extend([outcome] * copies)
     for scene in scenes:
-        print(f"\n{Path(scene).name}, seeds 0-{args.seeds - 1}{', ' + str(settings) if settings else ''}")
+        print(f"\n{Path(scene).name}, seeds {','.join(map(str, seeds))}{', ' + str(settings) if settings else ''}")
         print(f"{'controller':<10}{'success':>9}{'collision-free':>16}{'first collision (median)':>26}"
               f"{'max hand error':>16}{'mean S':>9}")
         for controller in controllers:

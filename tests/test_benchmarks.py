@@ -17,13 +17,13 @@ def _bench_preview(tmp_path: Path, *args: str) -> subprocess.CompletedProcess[st
     scene = tmp_path / "tiny.toml"
     scene.write_text(tiny_planar_toml("tiny", "[timing]\nduration = 0.5\n"))
     return subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "bench_preview.py"), "--jobs", "1", *args, str(scene)],
+        [sys.executable, str(ROOT / "benchmarks" / "bench_preview.py"), "--workers", "1", *args, str(scene)],
         capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, cwd=tmp_path, timeout=300,
     )
 
 
 def test_bench_preview_takes_toml_values_and_counts_an_unseeded_controller_for_every_seed(tmp_path: Path) -> None:
-    done = _bench_preview(tmp_path, "--seeds", "2", "--controllers", "none,multi", "--set", "gain=2.0",
+    done = _bench_preview(tmp_path, "--seed", "0-1", "--controller", "none,multi", "--set", "gain=2.0",
                           "--set", "weights=[0.2, 0.3, 0.5]", "--set", "execution=pseudoinverse")
     assert done.returncode == 0, done.stderr
     rows = {line.split()[0]: line.split() for line in done.stdout.splitlines() if line.startswith(("none", "multi"))}
