@@ -29,6 +29,7 @@ from previewctl.control.params import CONTROLLER_NAMES, ControllerParams
 from previewctl.errors import (
     ConfigurationError,
     ParameterError,
+    PlanningWorkerError,
     PreviewctlError,
     RobotLoadError,
     ScenarioError,
@@ -81,6 +82,7 @@ __all__ = [
     "ParameterError",
     "Periodic",
     "Plane",
+    "PlanningWorkerError",
     "Potential",
     "PreviewctlError",
     "Robot",

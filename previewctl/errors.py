@@ -71,6 +71,11 @@ class OutputError(PreviewctlError, ValueError):
     """An output file or folder that cannot be written (a missing parent, a folder where a file goes, ...)."""
 
 
+class PlanningWorkerError(PreviewctlError, RuntimeError):
+    """The planning worker beside the control loop crashed, failed or stopped answering; the loop goes on without
+    it (the ``qp`` fallback) and reports this in ``Controller.last_info.worker_error``."""
+
+
 class IgnoredSettingWarning(UserWarning):
     """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
     controllers); the run goes on without it, and its log records it."""
