@@ -206,7 +206,7 @@ def test_close_ends_a_busy_worker_and_a_forgotten_controller_leaves_no_child() -
     held = Held()
     held.go.clear()  # the worker blocks on its first state
     ctrl = stand_in_controller(worker_compute=held)
-    ctrl.step(np.array(Q0), 0.0, DT)
+    step_until(ctrl, 0, np.array(Q0), lambda info: held.blocked.value == 1)
     pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
     ctrl.close()  # asked, then terminated
     assert gone(pid) and pid not in [child.pid for child in multiprocessing.active_children()]

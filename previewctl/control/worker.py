@@ -2,10 +2,11 @@
 
 The exchange is one duplex pipe with at most one message in flight each way. The loop keeps its latest state in a
 slot of its own (a newer state replaces an unsent one) and sends it only when the worker is idle; the worker answers
-each state with exactly one message (a result, ``None`` for nothing new, or the error its computation raised). So
-the pipe never holds more than one message, neither end ever backs up, the worker always starts from the freshest
-state, and the loop only polls (a ``poll()`` and at most one small ``send`` per cycle, never a blocking read of an
-empty pipe). A queue would back up behind a slow worker; shared memory would need a lock the worker may die holding.
+each state with exactly one message (a result, ``None`` for nothing new, or the error its computation raised); its
+start counts as a state in flight, answered once its parts are built. So the pipe never holds more than one message
+each way, neither end ever backs up, the worker always starts from the freshest state, and the loop only polls (a
+``poll()`` and at most one small ``send`` per cycle, never a blocking read of an empty pipe). A queue would back up
+behind a slow worker; shared memory would need a lock the worker may die holding.
 
 The worker is a *spawned* process (Pinocchio and Coal keep the GIL, so a thread would stall the loop; a fork of a
 process with threads is unsafe): it rebuilds its parts from the picklable ``build`` it is given, lowers its OS
@@ -63,7 +64,9 @@ class PlanningWorker:
         self.timeout = timeout
         self.error: PlanningWorkerError | None = None
         self._slot: tuple[Array, float] | None = None
-        self._sent_at: float | None = None  # perf_counter [s] of the state in flight, None when the worker is idle
+        # perf_counter [s] of the state in flight, None when the worker is idle; its start counts as one (it answers
+        # None once its parts are built), so its first state is the freshest one then, not the first one posted
+        self._sent_at: float | None = time.perf_counter()
         self._finalizer = weakref.finalize(self, _stop, self._process, self._conn)
 
     def post(self, q: Array, t: float) -> None:
@@ -133,6 +136,7 @@ def _serve(conn: Connection, build: Callable[[], Any], compute: Compute, nicenes
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.nice(niceness)
     side = build()
+    conn.send(None)  # ready
     while True:
         try:
             message = conn.recv()
