@@ -3,7 +3,9 @@
 The loop integrates ``q`` itself at ``dt`` = 4 ms (no exact collision check) and times every ``step`` with
 ``perf_counter``. Two ways of stepping: as fast as possible (the loop never sleeps, so the path's clock runs ahead of
 the wall's and the worker's results age quickly), and paced at real time (each step at its deadline ``k dt``, as on
-a robot). Cycles are counted once the worker's first result has arrived (its start imports the package). Reported:
+a robot); and, for the host's own noise, the inline ``qp`` controller paced the same way (``qp``: what a
+fallback cycle costs). Cycles are counted once the worker's first result has arrived (its start imports the
+package). Reported:
 ``step`` p50, p99 and max [ms], how often the cycle fell back to ``qp``, the plan age at use (p50, p95 [s]), the
 results received, and the worker's errors. On a shared host the worker competes with everything else; these are
 not timed tests.
@@ -26,13 +28,15 @@ DT = 0.004  # [s]
 SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
-def measure(scenario: Scenario, cycles: int, paced: bool) -> str:
-    """One background ``multi`` run of ``cycles`` measured steps; a line of its numbers."""
-    robot = scenario.robot
+def measure(scenario: Scenario, cycles: int, mode: str) -> str:
+    """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``); a line of
+    its numbers."""
+    robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, ages, fallbacks, results, errors = [], [], 0, set(), set()
-    with pc.make_controller(scenario, name="multi", planning="background") as ctrl:
-        k, start, warm = 0, time.perf_counter(), None
+    kind = {"name": "qp"} if mode == "qp" else {"name": "multi", "planning": "background"}
+    with pc.make_controller(scenario, **kind) as ctrl:
+        k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
         while warm is None or k - warm < cycles:
             if paced:  # sleep to just before the deadline, then spin
                 deadline = start + k * DT
@@ -57,7 +61,7 @@ def measure(scenario: Scenario, cycles: int, paced: bool) -> str:
             if info.worker_error is not None:
                 errors.add(str(info.worker_error))
     ms = np.array(times) * 1e3
-    age = np.array(ages)
+    age = np.array(ages) if ages else np.full(1, np.nan)
     return (f"{np.percentile(ms, 50):8.3f}{np.percentile(ms, 99):8.3f}{ms.max():9.2f}{fallbacks / cycles:10.3f}"
             f"{np.percentile(age, 50):8.2f}{np.percentile(age, 95):8.2f}{len(results):8d}"
             f"  {'; '.join(sorted(errors)) or '-'}")
@@ -67,14 +71,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=3000, help="measured steps per run")
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
-    parser.add_argument("--modes", nargs="+", choices=["fast", "paced"], default=["fast", "paced"])
+    parser.add_argument("--modes", nargs="+", choices=["fast", "paced", "qp"], default=["fast", "paced", "qp"])
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'fallback':>10}{'age50':>8}"
           f"{'age95':>8}{'results':>8}  errors")
     for key in args.scenes:
         scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
         for mode in args.modes:
-            line = measure(scenario, args.cycles, paced=mode == "paced")
+            line = measure(scenario, args.cycles, mode)
             print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 

@@ -1,17 +1,17 @@
 """Planning beside the loop: the searches and the planner in a worker process, the loop reading their latest result.
 
 With ``make_controller(..., planning="background")`` the slow parts of a controller, its imaginary arms' GA searches
-(one generation per camera frame per arm) and its window planner, run in a :class:`~previewctl.control.worker.
-PlanningWorker` (a process at a lower OS priority), and :meth:`Controller.step
-<previewctl.control.controller.Controller.step>` never waits for them:
+(one generation per camera frame per arm) and its window planner, run in a
+:class:`~previewctl.control.worker.PlanningWorker` (a process at a lower OS priority), and
+:meth:`Controller.step <previewctl.control.controller.Controller.step>` never waits for them:
 
 * at each camera frame the loop posts its state ``(q, t)``; the worker, when idle, takes the latest one, runs the
   parts as inline planning would at that state (:class:`PlanningSide`) and answers with a :class:`PlanningResult`:
   the imaginary arms' targets (``argmax`` and ``peaks`` policies) or the plan being followed (the ``route`` policy,
   ``horizon``, ``oracle``), the state time ``t0`` it was computed from, and its compute time;
 * a plan delivered at ``t1`` is followed from where the arm is at ``t1``
-  (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time and
-  joined to the arm over one replan period;
+  (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time,
+  moved to start at the arm, and faded back into itself over one replan period;
 * a result is valid while its age ``t − t0`` is at most ``arms_valid_frames`` frames (targets) or
   ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
   valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
