@@ -198,6 +198,8 @@ def test_a_killed_worker_is_reported_and_close_leaves_no_child() -> None:
         assert ctrl.last_info.fallback and ctrl.last_info.worker_error is error
     ctrl.close()
     ctrl.close()  # idempotent
+    ctrl.step(q, k * DT, DT)
+    assert ctrl.last_info.fallback and ctrl.last_info.worker_error is error  # the first error stays
     assert pid not in [child.pid for child in multiprocessing.active_children()]
     assert gone(pid)
 
@@ -210,6 +212,8 @@ def test_close_ends_a_busy_worker_and_a_forgotten_controller_leaves_no_child() -
     pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
     ctrl.close()  # asked, then terminated
     assert gone(pid) and pid not in [child.pid for child in multiprocessing.active_children()]
+    ctrl.step(np.array(Q0), 1.0, DT)  # stepping a closed controller: the qp law
+    assert ctrl.last_info.fallback and "was closed" in str(ctrl.last_info.worker_error)
     forgotten = stand_in_controller()
     pid = forgotten.planning.worker.pid  # type: ignore[union-attr]
     del forgotten  # the finalizer ends the worker

@@ -85,6 +85,7 @@ class PlanningWorker:
         """
         answers: list[Any] = []
         if not self._finalizer.alive:
+            self.error = self.error or PlanningWorkerError(f"the planning worker (pid {self.pid}) was closed")
             return answers
         try:
             if self._sent_at is not None and self._conn.poll():
