@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -72,11 +73,16 @@ def main() -> None:
     parser.add_argument("--cycles", type=int, default=3000, help="measured steps per run")
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
     parser.add_argument("--modes", nargs="+", choices=["fast", "paced", "qp"], default=["fast", "paced", "qp"])
+    parser.add_argument("--without-gradient", action="store_true",
+                        help="no local term K_g grad S in the loop (panda_crossing sets with_gradient)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'fallback':>10}{'age50':>8}"
           f"{'age95':>8}{'results':>8}  errors")
     for key in args.scenes:
         scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
+        if args.without_gradient:
+            params = replace(scenario.controller.params, with_gradient=False)
+            scenario = replace(scenario, controller=replace(scenario.controller, params=params))
         for mode in args.modes:
             line = measure(scenario, args.cycles, mode)
             print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)

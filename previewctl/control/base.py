@@ -201,7 +201,7 @@ class Composition:
         imaginary_arms: the imaginary-arm policy (``argmax``, ``peaks`` or ``route``), or ``None``.
         planner: ``dp`` (the reachability DP), ``sampled`` (the sampled search), ``sweeps`` (straight sweeps between
             peaks), or ``None``.
-        planning: ``inline`` (the searches and the planner run inside :meth:`step`) or ``background`` (in a
+        planning: ``inline`` (the searches and the planner run inside ``Controller.step``) or ``background`` (in a
             worker process beside the loop, :mod:`previewctl.control.background`).
         ignored: the settings given that the controller does not read, as ``name = value``.
     """
