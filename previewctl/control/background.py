@@ -152,7 +152,7 @@ class BackgroundPlanning:
         self.result: PlanningResult | None = None
         self.follower: Follower | None = None
         self.worker: PlanningWorker | None = None
-        self._valid = options.arms_valid_frames * frame  # [s] set for plans by follower()
+        self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
         self._posting = False
 
     def arms(self, policy: ArmPolicy) -> ArmPolicy:
