@@ -11,9 +11,12 @@ import gc
 import multiprocessing
 import os
 import signal
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -299,3 +302,41 @@ def test_the_worker_side_answers_as_inline_planning(planar4: Robot) -> None:
     followed = inline.law.policy.planner.planner.motion  # type: ignore[attr-defined]
     np.testing.assert_array_equal(result.motion.q, followed.q)
     assert side(np.array(Q0), 0.01) is None  # the same plan: nothing new
+
+
+LOOP = """
+import sys, time
+import numpy as np
+import previewctl as pc
+
+if __name__ == "__main__":
+    scenario = pc.load_scenario(sys.argv[1])
+    ctrl = pc.make_controller(scenario, planning="background")  # never closed: Ctrl-C ends the script
+    print(ctrl.planning.worker.pid, flush=True)
+    q, k = np.array(scenario.q0), 0
+    while True:
+        q = pc.integrate(scenario.robot, q, ctrl.step(q, k * 0.004, 0.004), 0.004)
+        k += 1
+        time.sleep(0.004)
+"""
+
+
+def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
+    script = tmp_path / "loop.py"
+    script.write_text(LOOP)
+    scene = Path(__file__).resolve().parent.parent / "scenarios" / "paper_fitted.toml"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    loop = subprocess.Popen([sys.executable, str(script), str(scene)], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert loop.stdout is not None
+        pid = int(loop.stdout.readline())
+        time.sleep(2.0)  # the worker starts meanwhile
+        loop.send_signal(signal.SIGINT)
+        loop.wait(timeout=WAIT)
+    finally:
+        loop.kill()
+    assert loop.returncode != 0  # KeyboardInterrupt
+    deadline = time.monotonic() + 30.0
+    while not gone(pid):  # the worker is not the test's child: poll until it has been reaped
+        assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
+        time.sleep(0.1)
