@@ -229,8 +229,13 @@ def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Sce
         return PlanningSide(law.policy, robot, path, frame)
     if isinstance(law, (Horizon, Oracle)):
         return PlanningSide(law.planner, robot, path, frame)
-    raise ParameterError(f"controller {spec.name!r} cannot plan in the background; valid: "
-                         f"{', '.join(BACKGROUND_CONTROLLERS)}")
+    raise _no_background(spec.name)
+
+
+def _no_background(name: str) -> ParameterError:
+    """The error for background planning asked of controller ``name``, which cannot do it."""
+    return ParameterError(f"controller {name!r} cannot plan in the background; valid: "
+                          f"{', '.join(BACKGROUND_CONTROLLERS)} (or planning='inline')")
 
 
 @dataclass(frozen=True)
@@ -315,8 +320,7 @@ def compose(
     """
     name, params = spec.name, spec.params
     if beside is not None and name not in BACKGROUND_CONTROLLERS:
-        raise ParameterError(f"controller {name!r} cannot plan in the background; valid: "
-                             f"{', '.join(BACKGROUND_CONTROLLERS)} (or planning='inline')")
+        raise _no_background(name)
     execution_name = execution_of(name, params)
     execution: Execution = (QPExecution(robot, scene, params) if execution_name == "qp"
                             else PseudoInverseExecution(robot, params))
