@@ -267,10 +267,12 @@ def test_a_late_plan_is_joined_to_the_present_state(planar4: Robot) -> None:
 # ------------------------------------------------------------------------------------------ a real run
 
 
-def test_a_real_background_run_uses_the_workers_plans_and_cleans_up() -> None:
-    scenario = planar_scenario("multi")  # coherent multi on planar4: points of a route (the GA and the DP)
+@pytest.mark.parametrize(("name", "targets"), [("multi", 3), ("horizon", 1)])
+def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, targets: int) -> None:
+    """Coherent ``multi`` on planar4 (points of a route: the GA and the DP) and ``horizon`` (the DP's plan)."""
+    scenario = planar_scenario(name)
     with pc.make_controller(scenario, planning="background") as ctrl:
-        assert ctrl.describe().imaginary_arms == "route" and ctrl.describe().planner == "dp"
+        assert ctrl.describe().planner == "dp" and ctrl.describe().planning == "background"
         pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
         q, k, robot = np.array(scenario.q0), 0, scenario.robot
         deadline = time.monotonic() + WAIT
@@ -284,7 +286,7 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up() -> None:
             used += not info.fallback
             assert time.monotonic() < deadline, f"no valid plan after {WAIT} s: {info}"
             time.sleep(0.02)  # the path's clock runs 6 times slower than the wall's: the host is shared
-        assert info.plan_age is not None and info.targets is not None and info.targets.shape == (3, 4)
+        assert info.plan_age is not None and info.targets is not None and info.targets.shape == (targets, 4)
     assert gone(pid) and not multiprocessing.active_children()
 
 
