@@ -133,8 +133,10 @@ def test_background_is_recorded_and_inline_stays_the_default() -> None:
 def test_bad_planning_choices_name_the_valid_ones() -> None:
     with pytest.raises(pc.UnknownNameError, match="unknown planning 'beside'; valid: inline, background"):
         pc.make_controller(planar_scenario("multi"), planning="beside")
-    with pytest.raises(pc.ParameterError, match="'reach' cannot plan in the background; valid: single, multi"):
-        pc.make_controller(planar_scenario("reach"), planning="background")
+    with pytest.raises(pc.ParameterError, match="'gradient' cannot plan in the background; valid: single, multi"):
+        pc.make_controller(planar_scenario("gradient"), planning="background")
+    with pytest.raises(pc.ParameterError, match="reach plans in the background only with its planner"):
+        pc.make_controller(planar_scenario("reach", coherent=False), planning="background")
     with pytest.raises(pc.ParameterError, match="niceness"):
         BackgroundOptions(niceness=20)
     with pytest.raises(pc.ParameterError, match="timeout"):
@@ -267,9 +269,10 @@ def test_a_late_plan_is_joined_to_the_present_state(planar4: Robot) -> None:
 # ------------------------------------------------------------------------------------------ a real run
 
 
-@pytest.mark.parametrize(("name", "targets"), [("multi", 3), ("horizon", 1)])
+@pytest.mark.parametrize(("name", "targets"), [("multi", 3), ("reach", 3), ("horizon", 1)])
 def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, targets: int) -> None:
-    """Coherent ``multi`` on planar4 (points of a route: the GA and the DP) and ``horizon`` (the DP's plan)."""
+    """Coherent ``multi`` on planar4 (points of a route: the GA and the DP), ``reach`` (the DP's plan toward the GA's
+    peaks) and ``horizon`` (the DP's plan)."""
     scenario = planar_scenario(name)
     with pc.make_controller(scenario, planning="background") as ctrl:
         assert ctrl.describe().planner == "dp" and ctrl.describe().planning == "background"

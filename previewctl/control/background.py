@@ -8,7 +8,8 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
 * at each camera frame the loop posts its state ``(q, t)``; the worker, when idle, takes the latest one, runs the
   parts as inline planning would at that state (:class:`PlanningSide`) and answers with a :class:`PlanningResult`:
   the imaginary arms' targets (``argmax`` and ``peaks`` policies) or the plan being followed (the ``route`` policy,
-  ``horizon``, ``oracle``), the state time ``t0`` it was computed from, and its compute time;
+  ``reach`` with its best candidates and goal, ``horizon``, ``oracle``), the state time ``t0`` it was computed from,
+  and its compute time;
 * a plan delivered at ``t1`` is followed from where the arm is at ``t1``
   (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time,
   moved to start at the arm, and faded back into itself over one replan period;
@@ -33,7 +34,8 @@ from pydantic import Field
 
 from previewctl.control.base import ControlState, PlanningStatus
 from previewctl.control.imaginary import ArmPolicy, ImaginaryArms, RoutePoints, Targets, plan_points
-from previewctl.control.planner import WindowPlanner
+from previewctl.control.laws import Reach
+from previewctl.control.planner import PeakPlanner, WindowPlanner
 from previewctl.control.worker import Compute, PlanningWorker
 from previewctl.errors import ConfigurationError
 from previewctl.kinematics import kinematics, kinematics_reader
@@ -72,13 +74,17 @@ class PlanningResult:
         made: the state time ``t0`` [s] the result was computed from (a plan's: the time it starts at).
         compute: the wall time [s] the worker spent on that state.
         targets: the imaginary arms' targets (``argmax`` and ``peaks`` policies), else ``None``.
-        motion: the plan to follow (``route`` policy, ``horizon``, ``oracle``), else ``None``.
+        motion: a new plan to follow (``route`` policy, ``reach``, ``horizon``, ``oracle``), else ``None``.
+        best: ``reach``: the imaginary arms' best candidates and their AMSIP at the last frame, else ``None``.
+        goal: ``reach``: the peak the plan heads for, ``(level, configuration, S)``, or ``None``.
     """
 
     made: float
     compute: float
     targets: Targets | None = None
     motion: ReachMotion | None = None
+    best: tuple[Array, Array] | None = None
+    goal: tuple[int, Array, float] | None = None
 
 
 class PlanningSide:
@@ -88,13 +94,14 @@ class PlanningSide:
     the planner plans when due.
 
     Args:
-        part: the imaginary-arm policy (``single``, ``multi``) or the window planner (``horizon``, ``oracle``).
+        part: the imaginary-arm policy (``single``, ``multi``), the law (``reach``: its searches and its planner
+            toward their peaks) or the window planner (``horizon``, ``oracle``).
         robot: the arm.
         path: the desired hand path.
         frame: camera frame period [s].
     """
 
-    def __init__(self, part: ArmPolicy | WindowPlanner, robot: Robot, path: HandPath, frame: float) -> None:
+    def __init__(self, part: ArmPolicy | Reach | WindowPlanner, robot: Robot, path: HandPath, frame: float) -> None:
         self.part, self.robot, self.path, self.frame = part, robot, path, frame
         self._reader = kinematics_reader(robot)
         self._data = robot.model.createData()
@@ -106,6 +113,15 @@ class PlanningSide:
         kin = kinematics(self.robot, q[None], reader=self._reader)
         state = ControlState(q, t, kin, self.path, self.frame, frame_due=True, data=self._data)
         part = self.part
+        if isinstance(part, Reach) and isinstance(part.route, PeakPlanner):
+            part.null_input(state)
+            motion = part.route.planner.motion
+            if motion is None:
+                return None
+            new = motion is not self._sent
+            self._sent = motion
+            return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion if new else None,
+                                  best=part.arms.best, goal=part.route.goal)
         if isinstance(part, WindowPlanner):
             if part.due(t):
                 part.plan(state)
@@ -114,6 +130,8 @@ class PlanningSide:
         elif isinstance(part, RoutePoints):
             part.targets(state)
             motion = part.planner.planner.motion
+        elif isinstance(part, Reach):
+            raise ConfigurationError("reach plans in the background only with its planner toward the peaks")
         else:
             return PlanningResult(t, time.perf_counter() - start, targets=part.targets(state))
         if motion is None or motion is self._sent:
@@ -136,6 +154,26 @@ class Follower(WindowPlanner):
         return False
 
 
+class RemoteArms(ImaginaryArms):
+    """``reach``'s imaginary arms in the loop: they run no generation (the worker does); their best candidates and
+    frames are the worker's."""
+
+    def update(self, state: ControlState) -> bool:
+        """Never runs a generation here: ``False``."""
+        return False
+
+    def best_from(self, best: tuple[Array, Array]) -> None:
+        """Hold the worker's best candidates ``((p, nq), (p,))``."""
+        self._best = best
+
+
+class RemotePeaks(PeakPlanner):
+    """``reach``'s planner toward the peaks in the loop: it follows the worker's plans and goals."""
+
+    def update(self, state: ControlState, *, settled: bool) -> None:
+        """Nothing to plan here: the worker does (its goal arrives with its results)."""
+
+
 class BackgroundPlanning:
     """The loop's side: it stands in for the slow parts when :func:`~previewctl.control.factory.compose` builds the
     law (:meth:`arms`, :meth:`planner`), then exchanges states and results with the worker once per cycle.
@@ -154,12 +192,22 @@ class BackgroundPlanning:
         self.worker: PlanningWorker | None = None
         self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
         self._posting = False
+        self._arms: RemoteArms | None = None  # reach's stand-ins (reach())
+        self._peaks: RemotePeaks | None = None
 
     def arms(self, policy: ArmPolicy) -> ArmPolicy:
         """The loop's stand-in for ``policy``, whose searches (and planner) run in the worker."""
         if isinstance(policy, RoutePoints):
             self.follower = self._follower_of(policy.planner.planner)
         return BackgroundArms(policy.name, policy.arms, self)
+
+    def reach(self, arms: ImaginaryArms, route: PeakPlanner) -> tuple[RemoteArms, RemotePeaks]:
+        """The loop's stand-ins for ``reach``'s imaginary arms and planner toward their peaks."""
+        self.follower = self._follower_of(route.planner)
+        self._arms = RemoteArms(arms.robot, arms.searches, arms.preview_time)
+        self._peaks = RemotePeaks(route.robot, self.follower, hysteresis=route.hysteresis,
+                                  track_radius=route.track_radius)
+        return self._arms, self._peaks
 
     def planner(self, planner: WindowPlanner) -> Follower:
         """The loop's stand-in for ``planner``: it follows the worker's plans."""
@@ -197,6 +245,9 @@ class BackgroundPlanning:
         """Hold ``result``; a plan is followed from now on, joined to the arm's configuration."""
         if result.motion is not None and self.follower is not None:
             self.follower.follow(result.motion, state.t, state.q)
+        if self._arms is not None and self._peaks is not None and result.best is not None:
+            self._arms.best_from(result.best)
+            self._peaks.goal = result.goal
         self.result = result
 
     def targets(self, t: float, arms: ImaginaryArms) -> Targets:

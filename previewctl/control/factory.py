@@ -84,8 +84,9 @@ Seed = int | np.random.Generator | None
 PLANNING_MODES = ("inline", "background")
 """Where the searches and the planner run: inside :meth:`Controller.step` (``inline``, the default: deterministic) or
 in a worker process beside the loop (``background``, :mod:`previewctl.control.background`)."""
-BACKGROUND_CONTROLLERS = ("single", "multi", "horizon", "oracle")
-"""The controllers that can plan in the background (``reach`` cannot yet; the others have nothing to plan)."""
+BACKGROUND_CONTROLLERS = ("single", "multi", "reach", "horizon", "oracle")
+"""The controllers that can plan in the background (``reach`` with its planner only: coherent, on an arm the window
+planner covers); the others have nothing to plan."""
 
 
 class _Timing(Protocol):
@@ -227,6 +228,8 @@ def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Sce
     law = parts.law
     if isinstance(law, (SinglePreview, MultiPreview)):
         return PlanningSide(law.policy, robot, path, frame)
+    if isinstance(law, Reach):
+        return PlanningSide(law, robot, path, frame)
     if isinstance(law, (Horizon, Oracle)):
         return PlanningSide(law.planner, robot, path, frame)
     raise _no_background(spec.name)
@@ -370,7 +373,14 @@ def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.r
         keep = (robot.nv - 1,) if params.coherent and planar else ()
         if params.coherent and covered:
             peak_planner = _peak_planner(robot, evaluator, params)
-            return Reach(robot, params, arms, peak_planner, keep=keep), None, peak_planner.planner.kind
+            kind = peak_planner.planner.kind
+            if beside is not None:
+                arms, peak_planner = beside.reach(arms, peak_planner)
+            return Reach(robot, params, arms, peak_planner, keep=keep), None, kind
+        if beside is not None:
+            raise ParameterError(f"reach plans in the background only with its planner toward the peaks (coherent, "
+                                 f"on an arm the window planner covers); {robot.name!r} with coherent = "
+                                 f"{params.coherent} takes straight sweeps: use planning='inline'")
         sweeps = SweepRoutes(robot, params, evaluator, redundancy_map(robot), keep=keep)
         return Reach(robot, params, arms, sweeps, keep=keep), None, "sweeps"
     policy = _policy_name(spec, robot, covered)
