@@ -31,6 +31,7 @@ from previewctl.control.params import CONTROLLER_NAMES, ControllerParams
 from previewctl.errors import (
     ConfigurationError,
     ParameterError,
+    PlanningWorkerError,
     PreviewctlError,
     RobotLoadError,
     ScenarioError,
@@ -85,6 +86,7 @@ __all__ = [
     "ParameterError",
     "Periodic",
     "Plane",
+    "PlanningWorkerError",
     "Potential",
     "PreviewctlError",
     "Robot",

@@ -75,6 +75,11 @@ class MissingExtraError(PreviewctlError, ImportError):
     """An optional dependency is not installed; the message names it and the extra that installs it."""
 
 
+class PlanningWorkerError(PreviewctlError, RuntimeError):
+    """The planning worker beside the control loop crashed, failed or stopped answering; the loop goes on without
+    it (the ``qp`` fallback) and reports this in ``Controller.last_info.worker_error``."""
+
+
 class IgnoredSettingWarning(UserWarning):
     """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
     controllers); the run goes on without it, and its log records it."""

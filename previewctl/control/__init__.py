@@ -16,6 +16,8 @@ per controller name). A controller is composed of parts, each a module here:
   spatial arms) and the plans toward the imaginary arms' peaks; :mod:`~previewctl.control.sweeps`: straight sweeps;
 * :mod:`~previewctl.control.execution`: the pseudo-inverse (clamping and saturation,
   :mod:`~previewctl.control.saturation`) or the constrained QP;
+* :mod:`~previewctl.control.background`: the searches and the planner beside the loop, in a worker process
+  (:mod:`~previewctl.control.worker`);
 * :mod:`~previewctl.control.params`: the settings; :mod:`~previewctl.control.factory`: the one place that maps a
   controller name and a robot to parts.
 

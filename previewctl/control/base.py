@@ -23,6 +23,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import pinocchio as pin
 
+from previewctl.errors import PlanningWorkerError
 from previewctl.kinematics import Kinematics
 from previewctl.path import HandPath
 from previewctl.types import Array
@@ -128,6 +129,36 @@ class Executed:
 
 
 @dataclass(frozen=True)
+class PlanningStatus:
+    """How the planning beside the loop stands at one cycle (:mod:`previewctl.control.background`).
+
+    Attributes:
+        plan_age: ``t − t0`` [s] of the result in use, ``t0`` the state time it was computed from; ``None``: no
+            result yet.
+        fallback: the result is missing or older than it is valid for: the cycle runs the ``qp`` law (``v = 0``).
+        worker_error: why the worker gives no result (crashed, failed or not answering), else ``None``.
+    """
+
+    plan_age: float | None
+    fallback: bool
+    worker_error: PlanningWorkerError | None = None
+
+
+class Planning(Protocol):
+    """Planning beside the loop, as the controller drives it: one exchange per cycle, and an end."""
+
+    name: str
+
+    def exchange(self, state: ControlState) -> PlanningStatus:
+        """Post ``state`` and take the worker's latest result, without waiting."""
+        ...
+
+    def close(self) -> None:
+        """Stop the worker; no child process is left."""
+        ...
+
+
+@dataclass(frozen=True)
 class ControlInfo:
     """What one control cycle computed: the law's input, eq. 19's reference and what was executed.
 
@@ -137,6 +168,11 @@ class ControlInfo:
         frame_due: whether this cycle started a camera frame (the searches ran one generation).
         targets: the imaginary arms ``q̃_i``, ``(p, nq)``, or ``None``.
         target_amsip: their AMSIP values ``(p,)``, or ``None``.
+        plan_age: background planning: the age [s] of the result in use (:class:`PlanningStatus`); ``None``
+            inline or before the first result.
+        fallback: background planning: this cycle ran the ``qp`` law for want of a valid result (always
+            ``False`` inline).
+        worker_error: background planning: why the worker gives no result, else ``None``.
     """
 
     reference: Reference
@@ -144,6 +180,9 @@ class ControlInfo:
     frame_due: bool
     targets: Array | None = None
     target_amsip: Array | None = None
+    plan_age: float | None = None
+    fallback: bool = False
+    worker_error: PlanningWorkerError | None = None
 
     @property
     def hand_error(self) -> float:
@@ -162,6 +201,8 @@ class Composition:
         imaginary_arms: the imaginary-arm policy (``argmax``, ``peaks`` or ``route``), or ``None``.
         planner: ``dp`` (the reachability DP), ``sampled`` (the sampled search), ``sweeps`` (straight sweeps between
             peaks), or ``None``.
+        planning: ``inline`` (the searches and the planner run inside ``Controller.step``) or ``background`` (in a
+            worker process beside the loop, :mod:`previewctl.control.background`).
         ignored: the settings given that the controller does not read, as ``name = value``.
     """
 
@@ -171,6 +212,7 @@ class Composition:
     imaginary_arms: str | None = None
     planner: str | None = None
     ignored: tuple[str, ...] = ()
+    planning: str = "inline"
 
     def __str__(self) -> str:
         parts = [f"{self.controller} ({self.law})", f"execution {self.execution}"]
@@ -178,6 +220,8 @@ class Composition:
             parts.append(f"imaginary arms {self.imaginary_arms}")
         if self.planner is not None:
             parts.append(f"planner {self.planner}")
+        if self.planning != "inline":
+            parts.append(f"planning {self.planning}")
         if self.ignored:
             parts.append(f"ignored: {'; '.join(self.ignored)}")
         return ", ".join(parts)

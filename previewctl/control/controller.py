@@ -23,13 +23,22 @@ Camera frames: the GA searches of the preview modes run one generation per frame
 whenever ``floor(t / frame)`` differs from its value at the previous call; between frames the
 imaginary arms' last optima are kept. A loop slower than the frame rate thus runs one generation
 per call, never a backlog.
+
+Planning beside the loop (``make_controller(..., planning="background")``,
+:mod:`previewctl.control.background`): the searches and the planner run in a worker process, :meth:`Controller.step`
+posts its state and uses the latest valid result without waiting, and runs the ``qp`` law when there is none.
+Close such a controller when done (``ctrl.close()``, or ``with make_controller(...) as ctrl:``) to end its worker.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from types import TracebackType
 
-from previewctl.control.base import Composition, ControlInfo, ControlLaw, ControlState, Execution
+import numpy as np
+
+from previewctl.control.base import Composition, ControlInfo, ControlLaw, ControlState, Execution, NullInput, Planning
 from previewctl.control.params import ControllerParams
 from previewctl.control.tracking import reference
 from previewctl.errors import ConfigurationError, ParameterError, PreviewctlError
@@ -72,6 +81,7 @@ class Controller:
         composition: what the factory chose (:meth:`describe`).
         frame: camera frame period [s].
         dt: control period [s] assumed at the first call (later calls use the time elapsed).
+        planning: the searches and the planner beside the loop, or ``None`` (inline, inside the law).
 
     Raises:
         ParameterError: ``frame`` or ``dt`` not a time > 0.
@@ -88,6 +98,7 @@ class Controller:
         *,
         frame: float = FRAME_PERIOD,
         dt: float = CONTROL_PERIOD,
+        planning: Planning | None = None,
     ) -> None:
         self.law, self.execution, self.robot, self.path, self.params = law, execution, robot, path, params
         self._composition = composition
@@ -98,6 +109,7 @@ class Controller:
         self._last_frame: int | None = None
         self._last_t: float | None = None
         self._last_info: ControlInfo | None = None
+        self.planning = planning
 
     @property
     def name(self) -> str:
@@ -150,12 +162,32 @@ class Controller:
         kin = kinematics(self.robot, Q, reader=self._reader)
         state = ControlState(Q[0], now, kin, self.path, period, frame_due=frame != self._last_frame,
                              data=self._scratch)
-        null = self.law.null_input(state)
+        if self.planning is None:
+            null = self.law.null_input(state)
+            status = None
+        else:  # never waits; without a valid result the qp law
+            status = self.planning.exchange(state)
+            null = NullInput(np.zeros(self.robot.nv)) if status.fallback else self.law.null_input(state)
         ref = reference(self.robot, state, null.v, self.params)
         executed = self.execution(state, ref)
         self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip)
+        if status is not None:
+            self._last_info = replace(self._last_info, plan_age=status.plan_age, fallback=status.fallback,
+                                      worker_error=status.worker_error)
         self._last_frame, self._last_t = frame, now
         return executed.qdot
+
+    def close(self) -> None:
+        """End the planning worker, if any (no child process is left); idempotent. Stepping after it falls back."""
+        if self.planning is not None:
+            self.planning.close()
+
+    def __enter__(self) -> Controller:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        self.close()
 
     def _period(self, t: float, dt: float | None) -> float:
         if dt is not None:

@@ -34,16 +34,19 @@ stream (``Generator.spawn``), so the arms are independent and the same seed give
 
 from __future__ import annotations
 
+import copy
 import logging
 import warnings
 from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, fields
+from functools import partial
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from previewctl.control.background import BackgroundOptions, BackgroundPlanning, PlanningSide, answer
 from previewctl.control.base import Composition, ControlLaw, Execution
-from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller
+from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller, positive_period
 from previewctl.control.execution import PseudoInverseExecution, QPExecution
 from previewctl.control.imaginary import (
     ArgmaxArms,
@@ -65,6 +68,7 @@ from previewctl.control.params import (
 )
 from previewctl.control.planner import PeakPlanner, PlanTiming, WindowPlanner
 from previewctl.control.sweeps import SweepRoutes
+from previewctl.control.worker import Compute
 from previewctl.errors import IgnoredSettingWarning, ParameterError, UnknownNameError
 from previewctl.index.amsi import IndexParams
 from previewctl.index.evaluator import Evaluator
@@ -80,6 +84,12 @@ _log = logging.getLogger(__name__)
 
 Seed = int | np.random.Generator | None
 """An ``int`` seed, a ``numpy.random.Generator``, or ``None`` (see :func:`make_controller`)."""
+PLANNING_MODES = ("inline", "background")
+"""Where the searches and the planner run: inside :meth:`Controller.step` (``inline``, the default: deterministic) or
+in a worker process beside the loop (``background``, :mod:`previewctl.control.background`)."""
+BACKGROUND_CONTROLLERS = ("single", "multi", "reach", "horizon", "oracle")
+"""The controllers that can plan in the background (``reach`` with its planner only: coherent, on an arm the window
+planner covers); the others have nothing to plan."""
 
 
 class _Timing(Protocol):
@@ -133,6 +143,9 @@ def make_controller(
     frame: float | None = None,
     dt: float | None = None,
     search_factory: SearchFactory | None = None,
+    planning: str = "inline",
+    background: BackgroundOptions | None = None,
+    worker_compute: Compute | None = None,
 ) -> Controller:
     """A controller to step from your own loop: ``qdot = ctrl.step(q, t)``.
 
@@ -160,12 +173,21 @@ def make_controller(
         frame: camera frame period [s] (one GA generation per frame; default: the scenario's or 33 ms).
         dt: control period [s] assumed at the first step (default: the scenario's or 10 ms).
         search_factory: ``factory(i, rng_i)`` building the search of imaginary arm ``i`` (tests
-            and experiments); default: a :class:`~previewctl.search.ga.OneStepGA` each.
+            and experiments); default: a :class:`~previewctl.search.ga.OneStepGA` each. Picklable with
+            ``planning="background"``.
+        planning: ``inline`` (default) or ``background``: the searches and the planner in a worker process beside
+            the loop (:mod:`previewctl.control.background`; close the controller, or use it as a context manager,
+            to end the worker).
+        background: validity of the worker's results and worker settings (default
+            :class:`~previewctl.control.background.BackgroundOptions`\\ ``()``).
+        worker_compute: ``compute(side, q, t)`` the worker runs per state instead of
+            :func:`~previewctl.control.background.answer` (tests: a stand-in that blocks); picklable.
 
     Raises:
         UnknownNameError: an unknown controller name (the message lists the valid ones).
         ParameterError: ``source`` neither a scenario nor a name, a missing ``robot``/``path``,
-            a bad ``frame``/``dt``/``seed``, or settings the controller cannot honour (see :func:`compose`).
+            a bad ``frame``/``dt``/``seed``, settings the controller cannot honour (see :func:`compose`), or
+            background planning for a controller that cannot do it.
 
     Warns:
         IgnoredSettingWarning: a setting the controller does not read (see :func:`compose`).
@@ -178,22 +200,49 @@ def make_controller(
         raise ParameterError(f"make_controller({source!r}) needs {missing} (or a scenario instead of the name)")
     if base.name not in CONTROLLER_NAMES:
         raise UnknownNameError("controller", base.name, CONTROLLER_NAMES)
+    if planning not in PLANNING_MODES:
+        raise UnknownNameError("planning", planning, PLANNING_MODES)
     scene = (base.scene or Scene()) if scene is None else scene
-    evaluator = Evaluator(
-        robot,
-        scene,
-        base.index if index is None else index,
-        base.potential if potential is None else potential,
-    )
+    index = base.index if index is None else index
+    potential = base.potential if potential is None else potential
+    evaluator = Evaluator(robot, scene, index, potential)
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
-    parts = compose(spec, robot, scene, evaluator, rng, search_factory=search_factory)
+    frame = positive_period(base.frame if frame is None else frame, "frame")
+    beside = BackgroundPlanning(background or BackgroundOptions(), frame) if planning == "background" else None
+    worker_rng = copy.deepcopy(rng)  # the worker's searches draw the streams inline ones would
+    parts = compose(spec, robot, scene, evaluator, rng, search_factory=search_factory, beside=beside)
     _log.info("controller %s", parts.composition)
     if parts.composition.ignored:
         warnings.warn(f"controller {spec.name!r} does not use {'; '.join(parts.composition.ignored)}: ignored",
                       IgnoredSettingWarning, stacklevel=2)
+    if beside is not None:
+        beside.start(partial(planning_side, spec, robot, path, scene, index, potential, worker_rng, frame,
+                             search_factory), worker_compute or answer)
     return Controller(parts.law, parts.execution, robot, path, spec.params, parts.composition,
-                      frame=base.frame if frame is None else frame, dt=base.dt if dt is None else dt)
+                      frame=frame, dt=base.dt if dt is None else dt, planning=beside)
+
+
+def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Scene, index: IndexParams | None,
+                  potential: Potential | None, rng: np.random.Generator, frame: float,
+                  search_factory: SearchFactory | None) -> PlanningSide:
+    """The background worker's parts (run in the worker): the inline parts that ``spec`` names, composed as
+    :func:`make_controller` composes them, and the policy or planner of them that the worker runs."""
+    parts = compose(spec, robot, scene, Evaluator(robot, scene, index, potential), rng, search_factory=search_factory)
+    law = parts.law
+    if isinstance(law, (SinglePreview, MultiPreview)):
+        return PlanningSide(law.policy, robot, path, frame)
+    if isinstance(law, Reach):
+        return PlanningSide(law, robot, path, frame)
+    if isinstance(law, (Horizon, Oracle)):
+        return PlanningSide(law.planner, robot, path, frame)
+    raise _no_background(spec.name)
+
+
+def _no_background(name: str) -> ParameterError:
+    """The error for background planning asked of controller ``name``, which cannot do it."""
+    return ParameterError(f"controller {name!r} cannot plan in the background; valid: "
+                          f"{', '.join(BACKGROUND_CONTROLLERS)} (or planning='inline')")
 
 
 @dataclass(frozen=True)
@@ -254,6 +303,7 @@ def compose(
     rng: np.random.Generator,
     *,
     search_factory: SearchFactory | None = None,
+    beside: BackgroundPlanning | None = None,
 ) -> Parts:
     """The parts of the controller ``spec`` names, on ``robot`` in ``scene`` (the table of the module docstring).
 
@@ -265,14 +315,19 @@ def compose(
         rng: random generator; each imaginary arm gets an independent child stream.
         search_factory: ``factory(i, rng_i)`` building the search of imaginary arm ``i``; default: a
             :class:`previewctl.search.ga.OneStepGA` over :func:`previewctl.search.maps.redundancy_map`.
+        beside: background planning: it stands in for the imaginary-arm policy or the window planner, which run
+            in its worker; ``None``: inline.
 
     Raises:
-        ParameterError: ``imaginary_arms = "route"`` for ``multi`` on an arm the window planner does not cover.
+        ParameterError: ``imaginary_arms = "route"`` for ``multi`` on an arm the window planner does not cover, or
+            ``beside`` for a controller not in :data:`BACKGROUND_CONTROLLERS`.
 
     A setting the controller does not read is recorded in the composition's ``ignored``
     (:func:`make_controller` warns about it).
     """
     name, params = spec.name, spec.params
+    if beside is not None and name not in BACKGROUND_CONTROLLERS:
+        raise _no_background(name)
     execution_name = execution_of(name, params)
     execution: Execution = (QPExecution(robot, scene, params) if execution_name == "qp"
                             else PseudoInverseExecution(robot, params))
@@ -291,22 +346,24 @@ def compose(
         read |= set(SETTING_GROUPS["gradient"])
     elif name == "oracle":
         window = WindowPlanner(robot, evaluator, PlanTiming())
-        law, planner = Oracle(robot, params, window), window.kind
+        law, planner = Oracle(robot, params, window if beside is None else beside.planner(window)), window.kind
         read.add("gain")
     elif name == "horizon":
         window = WindowPlanner(robot, evaluator, PlanTiming.of(params))
-        law, planner = Horizon(robot, params, window), window.kind
+        law, planner = Horizon(robot, params, window if beside is None else beside.planner(window)), window.kind
         read |= {*SETTING_GROUPS["preview"], *SETTING_GROUPS["plan"]}
     else:
-        law, policy, planner = _preview(spec, robot, evaluator, rng, search_factory)
+        law, policy, planner = _preview(spec, robot, evaluator, rng, search_factory, beside)
         read |= _preview_reads(name, params, policy, planner)
     ignored = _ignored(params, read)
-    composition = Composition(name, type(law).__name__, execution.name, policy, planner, ignored)
+    composition = Composition(name, type(law).__name__, execution.name, policy, planner, ignored,
+                              "inline" if beside is None else beside.name)
     return Parts(law, execution, composition)
 
 
 def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.random.Generator,
-             search_factory: SearchFactory | None) -> tuple[ControlLaw, str | None, str | None]:
+             search_factory: SearchFactory | None,
+             beside: BackgroundPlanning | None) -> tuple[ControlLaw, str | None, str | None]:
     """The laws with imaginary arms (``single``, ``multi``, ``reach``): ``(law, imaginary-arm policy, planner)``."""
     name, params = spec.name, spec.params
     planar = robot.planar is not None
@@ -320,7 +377,14 @@ def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.r
         keep = (robot.nv - 1,) if params.coherent and planar else ()
         if params.coherent and covered:
             peak_planner = _peak_planner(robot, evaluator, params)
-            return Reach(robot, params, arms, peak_planner, keep=keep), None, peak_planner.planner.kind
+            kind = peak_planner.planner.kind
+            if beside is not None:
+                arms, peak_planner = beside.reach(arms, peak_planner)
+            return Reach(robot, params, arms, peak_planner, keep=keep), None, kind
+        if beside is not None:
+            raise ParameterError(f"reach plans in the background only with its planner toward the peaks (coherent, "
+                                 f"on an arm the window planner covers); {robot.name!r} with coherent = "
+                                 f"{params.coherent} takes straight sweeps: use planning='inline'")
         sweeps = SweepRoutes(robot, params, evaluator, redundancy_map(robot), keep=keep)
         return Reach(robot, params, arms, sweeps, keep=keep), None, "sweeps"
     policy = _policy_name(spec, robot, covered)
@@ -338,6 +402,8 @@ def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.r
     else:
         arm_policy = ArgmaxArms(ImaginaryArms(robot, searches, params.preview_time))
     law_class = SinglePreview if name == "single" else MultiPreview
+    if beside is not None:
+        arm_policy = beside.arms(arm_policy)
     return law_class(robot, params, arm_policy, weights, local), policy, planner
 
 

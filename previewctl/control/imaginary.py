@@ -25,7 +25,7 @@ import numpy as np
 from previewctl.control.base import ControlState
 from previewctl.control.params import ControllerParams
 from previewctl.control.peaks import PeakTracker
-from previewctl.control.planner import PeakPlanner
+from previewctl.control.planner import PeakPlanner, WindowPlanner
 from previewctl.control.tracking import effective_velocity_limits
 from previewctl.errors import ConfigurationError
 from previewctl.path import HandPath
@@ -272,14 +272,18 @@ class RoutePoints:
 
     def __init__(self, robot: Robot, arms: ImaginaryArms, planner: PeakPlanner, settle_frames: int) -> None:
         self.robot, self.arms, self.planner, self.settle_frames = robot, arms, planner, settle_frames
-        self._ramp = np.ones(len(arms))
-        self._keep = tuple(range(robot.nv))
 
     def targets(self, state: ControlState) -> Targets:
         """The plan's configurations at the preview times."""
         if self.arms.update(state):
             self.planner.peaks = self.arms.levels()
         self.planner.update(state, settled=self.arms.frames >= self.settle_frames)
-        points = [self.planner.planner.point(state.t + (i + 1) * self.arms.preview_time) for i in range(len(self.arms))]
-        return Targets(np.array([arm for arm, _, _ in points]), np.array([S for _, _, S in points]),
-                       ramp=self._ramp, keep=self._keep)
+        return plan_points(self.planner.planner, state.t, self.arms.preview_time, len(self.arms))
+
+
+def plan_points(planner: WindowPlanner, t: float, preview_time: float, count: int) -> Targets:
+    """The plan's configurations at the preview times ``t + i t̃``, ``i = 1..count`` [s], as targets at full weight
+    whose differences to the arm are plain (the plan is unwrapped along its motion)."""
+    points = [planner.point(t + (i + 1) * preview_time) for i in range(count)]
+    return Targets(np.array([arm for arm, _, _ in points]), np.array([S for _, _, S in points]),
+                   ramp=np.ones(count), keep=tuple(range(planner.robot.nv)))

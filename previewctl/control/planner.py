@@ -141,6 +141,7 @@ class WindowPlanner:
         self.goal: tuple[int, int] | None = None
         self._pending: tuple[float, ReachMotion, ReachResult | None] | None = None  # (from when [s], motion, result)
         self._angles: tuple[ReachMotion, ReachMotion] | None = None  # (a plan, it in joint coordinates)
+        self._join: tuple[float, Array] | None = None  # (fades from [s], offset (nv,)) of a late plan (follow())
 
     @property
     def kind(self) -> str:
@@ -182,7 +183,7 @@ class WindowPlanner:
               goal: tuple[int, int] | None = None) -> ReachMotion:
         """A plan made at ``t`` [s]: followed from now on, or from ``t + latency`` once there is one to follow."""
         self.arrive(t)
-        self.planned, self.goal = result, goal
+        self.planned, self.goal, self._join = result, goal, None
         if self.timing.latency > 0 and self.motion is not None:
             self._pending = (t + self.timing.latency, motion, result)
         else:
@@ -195,6 +196,22 @@ class WindowPlanner:
             _, self.motion, self.result = self._pending
             self._pending = None
 
+    def follow(self, motion: ReachMotion, t: float, q: Array) -> None:
+        """Follow ``motion``, a plan made elsewhere from an earlier state, from ``t`` [s] on, joined to the arm's
+        configuration ``q`` at ``t`` (a late plan, :mod:`previewctl.control.background`).
+
+        The plan followed is ``q_J(τ) = q*(τ) ⊕ (1 − s(u)) (q ⊖ q*(t))`` with ``u = clip((τ − t − t_l) / T, 0, 1)``,
+        ``s(u) = 3u² − 2u³``, ``t_l`` the lookahead and ``T`` the replan period: up to the lookahead it is the plan
+        moved to start where the arm is, so the first command after the delivery (:meth:`pull`) is the one an arm on
+        the plan gets; the offset then fades smoothly (``s'(0) = s'(1) = 0``), and from ``t + t_l + T`` on it is the
+        plan itself. The plan is read at the present time, never from its own start, so a plan that arrives late
+        neither replays the motion it planned for the time it took nor pulls the arm back toward where the arm was
+        when it was made.
+        """
+        self.motion, self.result, self._pending = motion, None, None
+        self._join = None
+        self._join = (t + self.timing.lookahead, pin.difference(self.robot.model, self.point(t)[0], q))
+
     def due(self, t: float) -> bool:
         """Whether a plan is due at ``t`` [s]: none made yet, or a replan (with a window; without, it plans once)."""
         return self.motion is None or (self.timing.window is not None and t >= self._next_plan)
@@ -206,10 +223,16 @@ class WindowPlanner:
         if motion is None:
             raise ConfigurationError("no plan was made yet: plan() makes one")
         coordinates = self._coordinates(motion)
-        angles = coordinates.at(t)
+        angles, rate = coordinates.at(t), coordinates.velocity(t)
+        if self._join is not None:  # a late plan joined to the arm (follow())
+            start, offset = self._join
+            period = self.timing.replan_period
+            u = min(max((t - start) / period, 0.0), 1.0)
+            angles = angles + (1.0 - u * u * (3.0 - 2.0 * u)) * offset
+            rate = rate - 6.0 * u * (1.0 - u) / period * offset
         q = angles if self.robot.joints.vector_space else self.robot.configuration_from_angles(angles)
         S = float(np.interp(t, motion.times, motion.S)) if motion.times.size else float("nan")
-        return q, coordinates.velocity(t), S
+        return q, rate, S
 
     def _coordinates(self, motion: ReachMotion) -> ReachMotion:
         """``motion`` in joint coordinates ``(nv)``: itself on an arm whose configuration is its joint angles;

@@ -1,0 +1,95 @@
+"""Step time with planning in the background (``make_controller(..., planning="background")``), ``multi``.
+
+The loop integrates ``q`` itself at ``dt`` = 4 ms (no exact collision check) and times every ``step`` with
+``perf_counter``. Two ways of stepping: as fast as possible (the loop never sleeps, so the path's clock runs ahead of
+the wall's and the worker's results age quickly), and paced at real time (each step at its deadline ``k dt``, as on
+a robot); and, for the host's own noise, the inline ``qp`` controller paced the same way (``qp``: what a
+fallback cycle costs). Cycles are counted once the worker's first result has arrived (its start imports the
+package). Reported:
+``step`` p50, p99 and max [ms], how often the cycle fell back to ``qp``, the plan age at use (p50, p95 [s]), the
+results used and the worker's wall time per result used (median, max [s]), and the worker's errors. On a shared
+host the worker competes with everything else; these are not timed tests.
+
+Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+import numpy as np
+
+import previewctl as pc
+from previewctl.sim.paper import shipped_scenarios_dir
+from previewctl.sim.scenario import Scenario
+
+DT = 0.004  # [s]
+SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
+
+
+def measure(scenario: Scenario, cycles: int, mode: str) -> str:
+    """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``); a line of
+    its numbers."""
+    robot, paced = scenario.robot, mode != "fast"
+    q = np.array(scenario.q0, dtype=float)
+    times, ages, fallbacks, errors = [], [], 0, set()
+    results: dict[float, float] = {}
+    kind = {"name": "qp"} if mode == "qp" else {"name": "multi", "planning": "background"}
+    with pc.make_controller(scenario, **kind) as ctrl:
+        k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
+        while warm is None or k - warm < cycles:
+            if paced:  # sleep to just before the deadline, then spin
+                deadline = start + k * DT
+                while (left := deadline - time.perf_counter()) > 0:
+                    if left > 0.001:
+                        time.sleep(left - 0.0005)
+            before = time.perf_counter()
+            qdot = ctrl.step(q, k * DT, DT)
+            spent = time.perf_counter() - before
+            q = pc.integrate(robot, q, qdot, DT)
+            info = ctrl.last_info
+            k += 1
+            if warm is None:
+                if info.plan_age is not None:
+                    warm = k
+                continue
+            times.append(spent)
+            fallbacks += info.fallback
+            if info.plan_age is not None:
+                ages.append(info.plan_age)
+                result = ctrl.planning.result  # type: ignore[union-attr]
+                results[result.made] = result.compute
+            if info.worker_error is not None:
+                errors.add(str(info.worker_error))
+    ms = np.array(times) * 1e3
+    age = np.array(ages) if ages else np.full(1, np.nan)
+    compute = np.array(list(results.values())) if results else np.full(1, np.nan)
+    return (f"{np.percentile(ms, 50):8.3f}{np.percentile(ms, 99):8.3f}{ms.max():9.2f}{fallbacks / cycles:10.3f}"
+            f"{np.percentile(age, 50):8.2f}{np.percentile(age, 95):8.2f}{len(results):8d}"
+            f"{np.median(compute):9.2f}{compute.max():9.2f}  {'; '.join(sorted(errors)) or '-'}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=3000, help="measured steps per run")
+    parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
+    parser.add_argument("--modes", nargs="+", choices=["fast", "paced", "qp"], default=["fast", "paced", "qp"])
+    parser.add_argument("--without-gradient", action="store_true",
+                        help="no local term K_g grad S in the loop (panda_crossing sets with_gradient)")
+    args = parser.parse_args()
+    print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'fallback':>10}{'age50':>8}"
+          f"{'age95':>8}{'results':>8}{'comp50':>9}{'compmax':>9}  errors")
+    for key in args.scenes:
+        scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
+        if args.without_gradient:
+            params = replace(scenario.controller.params, with_gradient=False)
+            scenario = replace(scenario, controller=replace(scenario.controller, params=params))
+        for mode in args.modes:
+            line = measure(scenario, args.cycles, mode)
+            print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

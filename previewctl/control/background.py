@@ -1,0 +1,286 @@
+"""Planning beside the loop: the searches and the planner in a worker process, the loop reading their latest result.
+
+With ``make_controller(..., planning="background")`` the slow parts of a controller, its imaginary arms' GA searches
+(one generation per camera frame per arm) and its window planner, run in a
+:class:`~previewctl.control.worker.PlanningWorker` (a process at a lower OS priority), and
+:meth:`Controller.step <previewctl.control.controller.Controller.step>` never waits for them:
+
+* at each camera frame the loop posts its state ``(q, t)``; the worker, when idle, takes the latest one, runs the
+  parts as inline planning would at that state (:class:`PlanningSide`) and answers with a :class:`PlanningResult`:
+  the imaginary arms' targets (``argmax`` and ``peaks`` policies) or the plan being followed (the ``route`` policy,
+  ``reach`` with its best candidates and goal, ``horizon``, ``oracle``), the state time ``t0`` it was computed from,
+  and its compute time;
+* a plan delivered at ``t1`` is followed from where the arm is at ``t1``
+  (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time,
+  moved to start at the arm, and faded back into itself over one replan period;
+* a result is valid while its age ``t − t0`` is at most ``arms_valid_frames`` frames (targets) or
+  ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
+  valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
+  QP execution still guards) and ``last_info`` says so (``plan_age``, ``fallback``, ``worker_error``).
+
+Inline planning stays the default everywhere: it is deterministic, and a background run is not (it depends on how
+fast the worker is).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Annotated
+
+from pydantic import Field
+
+from previewctl.control.base import ControlState, PlanningStatus
+from previewctl.control.imaginary import ArmPolicy, ImaginaryArms, RoutePoints, Targets, plan_points
+from previewctl.control.laws import Reach
+from previewctl.control.planner import PeakPlanner, WindowPlanner
+from previewctl.control.worker import Compute, PlanningWorker
+from previewctl.errors import ConfigurationError
+from previewctl.kinematics import kinematics, kinematics_reader
+from previewctl.path import HandPath
+from previewctl.robot.model import Robot
+from previewctl.search.reachability import ReachMotion
+from previewctl.types import Array
+from previewctl.validation import Checked, Integer, Positive
+
+
+@dataclass(frozen=True)
+class BackgroundOptions(Checked):
+    """How long the worker's results stay valid, and how the worker runs.
+
+    Attributes:
+        arms_valid_frames: the imaginary arms' targets are valid for this many camera frames after the state they
+            were computed from (a GA generation per frame: a few frames late is still the same peak).
+        plan_valid_periods: a plan is valid for this many replan periods after the state it was made from (the
+            worker makes the next one meanwhile); a plan over the whole future (``oracle``) stays valid.
+        timeout: wall time [s] a posted state may stay unanswered before the worker counts as hung (its start, the
+            import of the package and the rebuild of the parts, falls within the first).
+        niceness: how much the worker lowers its OS priority below the loop's (``os.nice``, 0-19).
+    """
+
+    arms_valid_frames: Positive = 3.0
+    plan_valid_periods: Positive = 3.0
+    timeout: Positive = 20.0
+    niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
+
+
+@dataclass(frozen=True)
+class PlanningResult:
+    """What the worker hands back for one state.
+
+    Attributes:
+        made: the state time ``t0`` [s] the result was computed from (a plan's: the time it starts at).
+        compute: the wall time [s] the worker spent on that state.
+        targets: the imaginary arms' targets (``argmax`` and ``peaks`` policies), else ``None``.
+        motion: a new plan to follow (``route`` policy, ``reach``, ``horizon``, ``oracle``), else ``None``.
+        best: ``reach``: the imaginary arms' best candidates and their AMSIP at the last frame, else ``None``.
+        goal: ``reach``: the peak the plan heads for, ``(level, configuration, S)``, or ``None``.
+    """
+
+    made: float
+    compute: float
+    targets: Targets | None = None
+    motion: ReachMotion | None = None
+    best: tuple[Array, Array] | None = None
+    goal: tuple[int, Array, float] | None = None
+
+
+class PlanningSide:
+    """The worker's side: the inline parts of the controller, run at each state the loop posts.
+
+    Every state posted starts a camera frame (the loop posts once per frame): the searches run one generation, and
+    the planner plans when due.
+
+    Args:
+        part: the imaginary-arm policy (``single``, ``multi``), the law (``reach``: its searches and its planner
+            toward their peaks) or the window planner (``horizon``, ``oracle``).
+        robot: the arm.
+        path: the desired hand path.
+        frame: camera frame period [s].
+    """
+
+    def __init__(self, part: ArmPolicy | Reach | WindowPlanner, robot: Robot, path: HandPath, frame: float) -> None:
+        self.part, self.robot, self.path, self.frame = part, robot, path, frame
+        self._reader = kinematics_reader(robot)
+        self._data = robot.model.createData()
+        self._sent: ReachMotion | None = None
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """The result for the state ``(q, t)``; ``None`` when it holds nothing new (the same plan as before)."""
+        start = time.perf_counter()
+        kin = kinematics(self.robot, q[None], reader=self._reader)
+        state = ControlState(q, t, kin, self.path, self.frame, frame_due=True, data=self._data)
+        part = self.part
+        if isinstance(part, Reach) and isinstance(part.route, PeakPlanner):
+            part.null_input(state)
+            motion = part.route.planner.motion
+            if motion is None:
+                return None
+            new = motion is not self._sent
+            self._sent = motion
+            return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion if new else None,
+                                  best=part.arms.best, goal=part.route.goal)
+        if isinstance(part, WindowPlanner):
+            if part.due(t):
+                part.plan(state)
+            part.arrive(t)
+            motion = part.motion
+        elif isinstance(part, RoutePoints):
+            part.targets(state)
+            motion = part.planner.planner.motion
+        elif isinstance(part, Reach):
+            raise ConfigurationError("reach plans in the background only with its planner toward the peaks")
+        else:
+            return PlanningResult(t, time.perf_counter() - start, targets=part.targets(state))
+        if motion is None or motion is self._sent:
+            return None
+        self._sent = motion
+        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion)
+
+
+def answer(side: PlanningSide, q: Array, t: float) -> PlanningResult | None:
+    """The worker's default computation: ``side(q, t)``."""
+    return side(q, t)
+
+
+class Follower(WindowPlanner):
+    """A window planner that makes no plans: it follows those the worker delivers
+    (:meth:`~previewctl.control.planner.WindowPlanner.follow`)."""
+
+    def due(self, t: float) -> bool:
+        """Never: the worker plans."""
+        return False
+
+
+class RemoteArms(ImaginaryArms):
+    """``reach``'s imaginary arms in the loop: they run no generation (the worker does); their best candidates and
+    frames are the worker's."""
+
+    def update(self, state: ControlState) -> bool:
+        """Never runs a generation here: ``False``."""
+        return False
+
+    def best_from(self, best: tuple[Array, Array]) -> None:
+        """Hold the worker's best candidates ``((p, nq), (p,))``."""
+        self._best = best
+
+
+class RemotePeaks(PeakPlanner):
+    """``reach``'s planner toward the peaks in the loop: it follows the worker's plans and goals."""
+
+    def update(self, state: ControlState, *, settled: bool) -> None:
+        """Nothing to plan here: the worker does (its goal arrives with its results)."""
+
+
+class BackgroundPlanning:
+    """The loop's side: it stands in for the slow parts when :func:`~previewctl.control.factory.compose` builds the
+    law (:meth:`arms`, :meth:`planner`), then exchanges states and results with the worker once per cycle.
+
+    Args:
+        options: validity and worker settings.
+        frame: camera frame period [s].
+    """
+
+    name = "background"
+
+    def __init__(self, options: BackgroundOptions, frame: float) -> None:
+        self.options, self.frame = options, frame
+        self.result: PlanningResult | None = None
+        self.follower: Follower | None = None
+        self.worker: PlanningWorker | None = None
+        self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
+        self._posting = False
+        self._arms: RemoteArms | None = None  # reach's stand-ins (reach())
+        self._peaks: RemotePeaks | None = None
+
+    def arms(self, policy: ArmPolicy) -> ArmPolicy:
+        """The loop's stand-in for ``policy``, whose searches (and planner) run in the worker."""
+        if isinstance(policy, RoutePoints):
+            self.follower = self._follower_of(policy.planner.planner)
+        return BackgroundArms(policy.name, policy.arms, self)
+
+    def reach(self, arms: ImaginaryArms, route: PeakPlanner) -> tuple[RemoteArms, RemotePeaks]:
+        """The loop's stand-ins for ``reach``'s imaginary arms and planner toward their peaks."""
+        self.follower = self._follower_of(route.planner)
+        self._arms = RemoteArms(arms.robot, arms.searches, arms.preview_time)
+        self._peaks = RemotePeaks(route.robot, self.follower, hysteresis=route.hysteresis,
+                                  track_radius=route.track_radius)
+        return self._arms, self._peaks
+
+    def planner(self, planner: WindowPlanner) -> Follower:
+        """The loop's stand-in for ``planner``: it follows the worker's plans."""
+        self.follower = self._follower_of(planner)
+        return self.follower
+
+    def _follower_of(self, planner: WindowPlanner) -> Follower:
+        timing = planner.timing
+        self._valid = (math.inf if timing.window is None
+                       else self.options.plan_valid_periods * timing.replan_period)
+        return Follower(planner.robot, planner.evaluator, timing)
+
+    def start(self, build: Callable[[], PlanningSide], compute: Compute = answer) -> None:
+        """Start the worker, which runs ``compute(build(), q, t)`` for each state posted."""
+        self.worker = PlanningWorker(build, compute, timeout=self.options.timeout, niceness=self.options.niceness)
+
+    def exchange(self, state: ControlState) -> PlanningStatus:
+        """Post the state at a new frame, take the worker's answer if one came, and say whether it is valid."""
+        worker = self.worker
+        if worker is None:
+            raise ConfigurationError("the planning worker was not started: start() starts it")
+        self._posting = self._posting or state.frame_due
+        if self._posting:
+            worker.post(state.q.copy(), state.t)
+        for result in worker.exchange():
+            if result is not None:
+                self._take(result, state)
+        if self._posting and not worker.waiting:
+            self._posting = False
+        age = None if self.result is None else state.t - self.result.made
+        fallback = worker.error is not None or age is None or age > self._valid + 1e-9
+        return PlanningStatus(age, fallback, worker.error)
+
+    def _take(self, result: PlanningResult, state: ControlState) -> None:
+        """Hold ``result``; a plan is followed from now on, joined to the arm's configuration."""
+        if result.motion is not None and self.follower is not None:
+            self.follower.follow(result.motion, state.t, state.q)
+        if self._arms is not None and self._peaks is not None and result.best is not None:
+            self._arms.best_from(result.best)
+            self._peaks.goal = result.goal
+        self.result = result
+
+    def targets(self, t: float, arms: ImaginaryArms) -> Targets:
+        """The imaginary arms' targets at ``t`` [s]: the worker's, or the followed plan's points at the preview
+        times."""
+        result = self.result
+        if result is None:
+            raise ConfigurationError("no result from the planning worker yet: exchange() brings it")
+        if result.targets is not None:
+            return result.targets
+        if self.follower is None:
+            raise ConfigurationError("a plan came from the planning worker, but nothing follows plans here")
+        return plan_points(self.follower, t, arms.preview_time, len(arms))
+
+    def close(self) -> None:
+        """Stop the worker; no child process is left."""
+        if self.worker is not None:
+            self.worker.close()
+
+
+class BackgroundArms:
+    """An imaginary-arm policy whose searches run in the worker: the targets of :meth:`BackgroundPlanning.targets`.
+
+    Args:
+        name: the policy's name (``argmax``, ``peaks`` or ``route``).
+        arms: the imaginary arms (their number and preview time).
+        planning: the loop's side of the planning.
+    """
+
+    def __init__(self, name: str, arms: ImaginaryArms, planning: BackgroundPlanning) -> None:
+        self.name, self.arms, self.planning = name, arms, planning
+
+    def targets(self, state: ControlState) -> Targets:
+        """The latest targets the worker's results give at the state's time."""
+        return self.planning.targets(state.t, self.arms)
+

@@ -1,0 +1,153 @@
+"""A worker process beside the control loop: started once, handed the latest state, read without waiting.
+
+The exchange is one duplex pipe with at most one message in flight each way. The loop keeps its latest state in a
+slot of its own (a newer state replaces an unsent one) and sends it only when the worker is idle; the worker answers
+each state with exactly one message (a result, ``None`` for nothing new, or the error its computation raised); its
+start counts as a state in flight, answered once its parts are built. So the pipe never holds more than one message
+each way, neither end ever backs up, the worker always starts from the freshest state, and the loop only polls (a
+``poll()`` and at most one small ``send`` per cycle, never a blocking read of an empty pipe). A queue would back up
+behind a slow worker; shared memory would need a lock the worker may die holding.
+
+The worker is a *spawned* process (Pinocchio and Coal keep the GIL, so a thread would stall the loop; a fork of a
+process with threads is unsafe): it rebuilds its parts from the picklable ``build`` it is given, lowers its OS
+priority by ``niceness`` and ignores SIGINT (Ctrl-C stops the loop, whose :meth:`PlanningWorker.close` ends the
+worker). A worker that exits, raises, or does not answer within ``timeout`` is reported as a
+:class:`~previewctl.errors.PlanningWorkerError`; the loop goes on without it. :meth:`PlanningWorker.close` asks it to
+stop, then terminates and finally kills it; a ``weakref.finalize`` does the same for a worker that was never closed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import time
+import weakref
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
+from typing import Any
+
+from previewctl.errors import PlanningWorkerError
+from previewctl.types import Array
+
+GRACE = 1.0
+"""How long [s] :meth:`PlanningWorker.close` waits for the worker to stop by itself, then after terminating it."""
+
+Compute = Callable[[Any, Array, float], Any]
+"""``compute(side, q, t)``: the worker's answer to the state ``(q, t)`` [rad, s], from what ``build()`` made."""
+
+
+class PlanningWorker:
+    """A process that answers the latest state posted (module docstring).
+
+    Args:
+        build: a picklable callable, run once in the worker, that makes its parts (``side``).
+        compute: a picklable ``compute(side, q, t)`` run for each state the worker receives.
+        timeout: how long [s] of wall time a state may stay unanswered before the worker counts as hung.
+        niceness: how much the worker lowers its OS priority (``os.nice``).
+
+    Attributes:
+        error: why the worker gives no result (``None`` while it answers).
+        pid: the worker's process id.
+    """
+
+    def __init__(self, build: Callable[[], Any], compute: Compute, *, timeout: float, niceness: int) -> None:
+        context = multiprocessing.get_context("spawn")
+        self._conn, child = context.Pipe(duplex=True)
+        self._process = context.Process(target=_serve, args=(child, build, compute, niceness), daemon=True,
+                                        name="previewctl-planning")
+        self._process.start()
+        child.close()
+        self.pid = int(self._process.pid or 0)
+        self.timeout = timeout
+        self.error: PlanningWorkerError | None = None
+        self._slot: tuple[Array, float] | None = None
+        # perf_counter [s] of the state in flight, None when the worker is idle; its start counts as one (it answers
+        # None once its parts are built), so its first state is the freshest one then, not the first one posted
+        self._sent_at: float | None = time.perf_counter()
+        self._finalizer = weakref.finalize(self, _stop, self._process, self._conn)
+
+    def post(self, q: Array, t: float) -> None:
+        """Put the state ``(q, t)`` in the slot (replacing an unsent one); it goes out when the worker is idle."""
+        self._slot = (q, t)
+
+    @property
+    def waiting(self) -> bool:
+        """Whether a posted state is still in the slot (the worker was busy)."""
+        return self._slot is not None
+
+    def exchange(self) -> list[Any]:
+        """The answers received since the last call (at most one), and the slot sent if the worker is idle.
+
+        Never waits. Sets :attr:`error` when the worker has exited, raised, or not answered within the timeout.
+        """
+        answers: list[Any] = []
+        if not self._finalizer.alive:
+            self.error = self.error or PlanningWorkerError(f"the planning worker (pid {self.pid}) was closed")
+            return answers
+        try:
+            if self._sent_at is not None and self._conn.poll():
+                answer = self._conn.recv()
+                self._sent_at = None
+                if isinstance(answer, PlanningWorkerError):
+                    self.error = answer
+                else:
+                    self.error = None
+                    answers.append(answer)
+            if self._sent_at is None and self._slot is not None:
+                self._conn.send(self._slot)
+                self._slot, self._sent_at = None, time.perf_counter()
+        except (EOFError, OSError):
+            self.error = PlanningWorkerError(f"the planning worker (pid {self.pid}) exited with code "
+                                             f"{self._exit_code()}: no more plans")
+            self.close()
+            return answers
+        if self._sent_at is not None and time.perf_counter() - self._sent_at > self.timeout:
+            self.error = PlanningWorkerError(f"the planning worker (pid {self.pid}) has not answered for more than "
+                                             f"{self.timeout:g} s (the timeout)")
+        return answers
+
+    def _exit_code(self) -> int | None:
+        self._process.join(GRACE)
+        return self._process.exitcode
+
+    def close(self) -> None:
+        """Stop the worker (a request, then SIGTERM, then SIGKILL, :data:`GRACE` apart) and reap it; idempotent."""
+        self._finalizer()
+
+
+def _stop(process: BaseProcess, conn: Connection) -> None:
+    """Ask ``process`` to stop, terminate it, kill it, each after :data:`GRACE`; join it and close the pipe."""
+    with contextlib.suppress(OSError, ValueError):  # the worker is gone already, or the pipe closed
+        conn.send(None)
+    process.join(GRACE)
+    if process.is_alive():
+        process.terminate()
+        process.join(GRACE)
+    if process.is_alive():
+        process.kill()
+        process.join()
+    conn.close()
+
+
+def _serve(conn: Connection, build: Callable[[], Any], compute: Compute, niceness: int) -> None:
+    """The worker's main: build the parts, then answer each state until ``None`` comes or the pipe closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.nice(niceness)
+    side = build()
+    conn.send(None)  # ready
+    while True:
+        try:
+            message = conn.recv()
+        except EOFError:
+            return
+        if message is None:
+            return
+        q, t = message
+        try:
+            answer = compute(side, q, t)
+        except Exception as exc:  # reported to the loop, which falls back; the worker serves on
+            answer = PlanningWorkerError(f"planning failed at t = {t:g} s: {type(exc).__name__}: {exc}")
+        conn.send(answer)

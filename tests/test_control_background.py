@@ -1,0 +1,347 @@
+"""Tests of :mod:`previewctl.control.background` and :mod:`previewctl.control.worker`: planning beside the loop.
+
+The worker is a spawned process, so the stand-ins it runs (a search, a computation that waits on an event) are
+module-level classes: the worker imports this module to unpickle them. No assertion is on speed; the waits for the
+worker have generous timeouts (its start imports the package, which takes seconds on a loaded host).
+"""
+
+from __future__ import annotations
+
+import gc
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+import previewctl as pc
+from previewctl.control.background import BackgroundOptions, PlanningResult, PlanningSide, answer
+from previewctl.control.planner import PlanTiming, WindowPlanner
+from previewctl.index.evaluator import Evaluator
+from previewctl.robot.model import Robot
+from previewctl.search.reachability import ReachMotion
+from previewctl.sim.scenario import Scenario
+
+Array = NDArray[np.float64]
+Q0 = [0.6, 1.0, -1.2, -1.0]  # [rad]; the hand at START
+TARGET = [0.9, 0.7, -1.4, -0.7]  # [rad]; the stand-in searches' answer, away from Q0
+START, END = [1.9069, 1.0417], [1.6069, 0.6417]  # [m]
+DT = 0.004  # [s]
+WAIT = 180.0  # [s] of wall time the worker may take to start and answer on a loaded host
+
+
+def planar_scenario(controller: str = "multi", **params: Any) -> Scenario:
+    """planar4 along a 0.5 m line, a ball near link 2 (as in test_control_controller.py)."""
+    return pc.scenario_from_dict({
+        "name": "background_test",
+        "robot": {"source": "planar4", "q0": Q0},
+        "path": {"waypoints": [START, END], "duration": 5.0},
+        "obstacles": [{"name": "ball", "shape": "sphere", "radius": 0.15, "position": [1.0, 0.6]}],
+        "controller": {"name": controller, **params},
+        "timing": {"duration": 1.0},
+    })
+
+
+@dataclass(frozen=True)
+class Best:
+    q: Array
+    S: float
+
+
+class FixedSearch:
+    """A stand-in for the 1-step GA: always the configuration TARGET."""
+
+    def __init__(self) -> None:
+        self.best = Best(np.array(TARGET), 1.0)
+
+    def step(self, target: Array, t: float) -> Best:
+        return self.best
+
+    def peaks(self) -> tuple[Best, ...]:
+        return (self.best,)
+
+    def seed(self, q: Array) -> None:
+        pass
+
+
+def fixed_search(i: int, rng: np.random.Generator) -> FixedSearch:
+    return FixedSearch()
+
+
+class Held:
+    """The worker's computation, held while ``go`` is clear (the test holds it); ``blocked`` is 1 while it waits."""
+
+    def __init__(self) -> None:
+        context = multiprocessing.get_context("spawn")
+        self.go, self.blocked = context.Event(), context.Value("i", 0)
+        self.go.set()
+
+    def __call__(self, side: PlanningSide, q: Array, t: float) -> PlanningResult | None:
+        if not self.go.is_set():
+            self.blocked.value = 1
+            self.go.wait()
+            self.blocked.value = 0
+        return answer(side, q, t)
+
+
+def stand_in_controller(**kwargs: Any) -> pc.Controller:
+    """``multi`` with argmax imaginary arms on stand-in searches, planning in the background."""
+    return pc.make_controller(planar_scenario("multi", coherent=False), search_factory=fixed_search,
+                              planning="background", **kwargs)
+
+
+def step_until(ctrl: pc.Controller, k: int, q: Array, done: Callable[[pc.ControlInfo], bool]) -> int:
+    """Step at ``t = k DT`` (the arm held at ``q``), 10 ms of wall time apart, until ``done(last_info)``; the next
+    ``k``."""
+    deadline = time.monotonic() + WAIT
+    while True:
+        ctrl.step(q, k * DT, DT)
+        k += 1
+        if done(ctrl.last_info):
+            return k
+        assert time.monotonic() < deadline, f"no change after {WAIT} s: {ctrl.last_info}"
+        time.sleep(0.01)
+
+
+def gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+# ------------------------------------------------------------------------------------------- the choice
+
+
+def test_background_is_recorded_and_inline_stays_the_default() -> None:
+    assert pc.make_controller(planar_scenario("multi")).describe().planning == "inline"
+    with stand_in_controller() as ctrl:
+        assert ctrl.describe().planning == "background"
+        assert "planning background" in str(ctrl.describe())
+
+
+def test_bad_planning_choices_name_the_valid_ones() -> None:
+    with pytest.raises(pc.UnknownNameError, match="unknown planning 'beside'; valid: inline, background"):
+        pc.make_controller(planar_scenario("multi"), planning="beside")
+    with pytest.raises(pc.ParameterError, match="'gradient' cannot plan in the background; valid: single, multi"):
+        pc.make_controller(planar_scenario("gradient"), planning="background")
+    with pytest.raises(pc.ParameterError, match="reach plans in the background only with its planner"):
+        pc.make_controller(planar_scenario("reach", coherent=False), planning="background")
+    with pytest.raises(pc.ParameterError, match="niceness"):
+        BackgroundOptions(niceness=20)
+    with pytest.raises(pc.ParameterError, match="timeout"):
+        BackgroundOptions(timeout=0.0)
+
+
+# ---------------------------------------------------------------------------------- never waits, falls back
+
+
+def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
+    qp = pc.make_controller(planar_scenario("qp"))
+    held, q = Held(), np.array(Q0)
+    with stand_in_controller(worker_compute=held) as ctrl:
+        k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+        np.testing.assert_array_equal(ctrl.last_info.targets, [TARGET] * 3)  # the worker's imaginary arms
+        held.go.clear()
+        k = step_until(ctrl, k, q, lambda info: held.blocked.value == 1)  # the worker holds a state
+        start, ages, fallbacks = time.perf_counter(), [], []
+        for _ in range(200):
+            qdot = ctrl.step(q, k * DT, DT)
+            info = ctrl.last_info
+            ages.append(info.plan_age)
+            fallbacks.append(info.fallback)
+            if info.fallback:  # the qp law: v = 0, the same command as the qp controller's
+                np.testing.assert_allclose(qdot, qp.step(q, k * DT, DT), atol=1e-9)
+            k += 1
+        assert time.perf_counter() - start < 5.0  # 200 steps; waiting once for the worker would take forever
+        assert np.all(np.diff(ages) > 0)  # the same result, older and older
+        valid = BackgroundOptions().arms_valid_frames * ctrl.frame
+        assert fallbacks == [age > valid + 1e-9 for age in ages] and fallbacks[-1]
+        assert ctrl.last_info.worker_error is None  # held, not hung: within the timeout
+        held.go.set()
+        step_until(ctrl, k, q, lambda info: not info.fallback)
+        assert ctrl.last_info.plan_age is not None and ctrl.last_info.plan_age <= valid
+
+
+def test_a_hung_worker_is_reported_after_the_timeout() -> None:
+    held, q = Held(), np.array(Q0)
+    with stand_in_controller(worker_compute=held, background=BackgroundOptions(timeout=1.0)) as ctrl:
+        k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+        held.go.clear()
+        step_until(ctrl, k, q, lambda info: info.worker_error is not None)
+        assert ctrl.last_info.fallback
+        assert isinstance(ctrl.last_info.worker_error, pc.PlanningWorkerError)
+        assert "has not answered for more than 1 s" in str(ctrl.last_info.worker_error)
+        held.go.set()  # it answers again: the error is gone
+        step_until(ctrl, k, q, lambda info: not info.fallback)
+        assert ctrl.last_info.worker_error is None
+
+
+def test_a_killed_worker_is_reported_and_close_leaves_no_child() -> None:
+    ctrl = stand_in_controller()
+    q = np.array(Q0)
+    k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+    pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+    assert pid in [child.pid for child in multiprocessing.active_children()]
+    os.kill(pid, signal.SIGKILL)
+    k = step_until(ctrl, k, q, lambda info: info.worker_error is not None)
+    error = ctrl.last_info.worker_error
+    assert isinstance(error, pc.PlanningWorkerError) and f"pid {pid}) exited with code -9" in str(error)
+    for _ in range(5):  # no hang, and the qp law from now on
+        ctrl.step(q, k * DT, DT)
+        k += 1
+        assert ctrl.last_info.fallback and ctrl.last_info.worker_error is error
+    ctrl.close()
+    ctrl.close()  # idempotent
+    ctrl.step(q, k * DT, DT)
+    assert ctrl.last_info.fallback and ctrl.last_info.worker_error is error  # the first error stays
+    assert pid not in [child.pid for child in multiprocessing.active_children()]
+    assert gone(pid)
+
+
+def test_close_ends_a_busy_worker_and_a_forgotten_controller_leaves_no_child() -> None:
+    held = Held()
+    held.go.clear()  # the worker blocks on its first state
+    ctrl = stand_in_controller(worker_compute=held)
+    step_until(ctrl, 0, np.array(Q0), lambda info: held.blocked.value == 1)
+    pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+    ctrl.close()  # asked, then terminated
+    assert gone(pid) and pid not in [child.pid for child in multiprocessing.active_children()]
+    ctrl.step(np.array(Q0), 1.0, DT)  # stepping a closed controller: the qp law
+    assert ctrl.last_info.fallback and "was closed" in str(ctrl.last_info.worker_error)
+    forgotten = stand_in_controller()
+    pid = forgotten.planning.worker.pid  # type: ignore[union-attr]
+    del forgotten  # the finalizer ends the worker
+    gc.collect()
+    assert gone(pid) and pid not in [child.pid for child in multiprocessing.active_children()]
+
+
+# --------------------------------------------------------------------------------------- late plans joined
+
+
+def line_plan(robot: Robot, t0: float) -> tuple[WindowPlanner, ReachMotion]:
+    """A window planner and a plan from Q0 at ``t0`` to TARGET one second later."""
+    planner = WindowPlanner(robot, Evaluator(robot, pc.Scene()), PlanTiming(replan_period=0.5, window=1.5))
+    times = np.array([t0, t0 + 1.0])
+    motion = ReachMotion(times=times, q=np.array([Q0, TARGET]), S=np.ones(2), branch=np.zeros(2, dtype=np.int64),
+                         cells=np.zeros(2, dtype=np.int64), min_S=1.0, total_S=2.0)
+    return planner, motion
+
+
+def test_a_late_plan_is_joined_to_the_present_state(planar4: Robot) -> None:
+    """A plan made from Q0 at t0 = 0 and delivered at t1 = 0.4 s, when the arm is off it by ``offset``."""
+    planner, motion = line_plan(planar4, 0.0)
+    t1, gain = 0.4, np.full(4, 2.0)
+    offset = np.array([0.05, -0.04, 0.03, 0.02])  # [rad]
+    q1 = motion.at(t1) + offset  # where the arm is at t1
+    planner.follow(motion, t1, q1)
+    np.testing.assert_allclose(planner.point(t1)[0], q1, atol=1e-12)  # the joined plan starts at the arm ...
+    np.testing.assert_allclose(planner.point(t1)[1], motion.velocity(t1))  # ... with the plan's velocity
+    v, q_ref, _ = planner.pull(q1, t1, gain)  # the first command's null-space input after the delivery
+    lookahead, period = planner.timing.lookahead, planner.timing.replan_period
+    progress = motion.at(t1 + lookahead) - motion.at(t1)
+    np.testing.assert_allclose(q_ref - q1, progress, atol=1e-12)  # the plan's progress from where the arm is
+    on_plan = motion.velocity(t1 + lookahead) + gain * progress  # the command of an arm on the plan
+    np.testing.assert_allclose(v, on_plan, atol=1e-12)
+    # without the join: a jump of K * offset toward the plan; followed from its own start: back toward Q0
+    unjoined = on_plan - gain * offset
+    naive = motion.velocity(lookahead) + gain * (motion.at(lookahead) - q1)
+    assert np.dot(naive - on_plan, np.array(Q0) - q1) > 0.1 and np.linalg.norm(unjoined - on_plan) > 0.1
+    # the offset fades after the lookahead, over one replan period; then the joined plan is the plan
+    middle = t1 + lookahead + period / 2
+    np.testing.assert_allclose(planner.point(middle)[0], motion.at(middle) + offset / 2, atol=1e-12)
+    np.testing.assert_allclose(planner.point(middle)[1], motion.velocity(middle) - 1.5 / period * offset, atol=1e-12)
+    after = t1 + lookahead + period
+    np.testing.assert_allclose(planner.point(after)[0], motion.at(after), atol=1e-12)
+    np.testing.assert_allclose(planner.point(after + 0.1)[1], motion.velocity(after + 0.1))
+
+
+# ------------------------------------------------------------------------------------------ a real run
+
+
+@pytest.mark.parametrize(("name", "targets"), [("multi", 3), ("reach", 3), ("horizon", 1)])
+def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, targets: int) -> None:
+    """Coherent ``multi`` on planar4 (points of a route: the GA and the DP), ``reach`` (the DP's plan toward the GA's
+    peaks) and ``horizon`` (the DP's plan)."""
+    scenario = planar_scenario(name)
+    with pc.make_controller(scenario, planning="background") as ctrl:
+        assert ctrl.describe().planner == "dp" and ctrl.describe().planning == "background"
+        pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+        q, k, robot = np.array(scenario.q0), 0, scenario.robot
+        deadline = time.monotonic() + WAIT
+        used = 0
+        while used == 0:
+            qdot = ctrl.step(q, k * DT, DT)
+            q = pc.integrate(robot, q, qdot, DT)
+            k += 1
+            info = ctrl.last_info
+            assert info.worker_error is None and info.hand_error < 1e-3
+            used += not info.fallback
+            assert time.monotonic() < deadline, f"no valid plan after {WAIT} s: {info}"
+            time.sleep(0.02)  # the path's clock runs 6 times slower than the wall's: the host is shared
+        assert info.plan_age is not None and info.targets is not None and info.targets.shape == (targets, 4)
+    assert gone(pid) and not multiprocessing.active_children()
+
+
+def test_the_worker_side_answers_as_inline_planning(planar4: Robot) -> None:
+    """Run in this process: the worker's computation gives the plan the inline route policy follows."""
+    scenario = planar_scenario("multi")
+    inline = pc.make_controller(scenario)
+    inline.step(np.array(Q0), 0.0, DT)
+    from previewctl.control.factory import planning_side
+
+    side = planning_side(replace(scenario.controller), scenario.robot, scenario.path, scenario.scene, scenario.index,
+                         scenario.potential, np.random.default_rng(scenario.seed), 0.033, None)
+    result = side(np.array(Q0), 0.0)
+    assert result is not None and result.motion is not None and result.made == 0.0 and result.compute > 0
+    followed = inline.law.policy.planner.planner.motion  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(result.motion.q, followed.q)
+    assert side(np.array(Q0), 0.01) is None  # the same plan: nothing new
+
+
+LOOP = """
+import sys, time
+import numpy as np
+import previewctl as pc
+
+if __name__ == "__main__":
+    scenario = pc.load_scenario(sys.argv[1])
+    ctrl = pc.make_controller(scenario, planning="background")  # never closed: Ctrl-C ends the script
+    print(ctrl.planning.worker.pid, flush=True)
+    q, k = np.array(scenario.q0), 0
+    while True:
+        q = pc.integrate(scenario.robot, q, ctrl.step(q, k * 0.004, 0.004), 0.004)
+        k += 1
+        time.sleep(0.004)
+"""
+
+
+def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
+    script = tmp_path / "loop.py"
+    script.write_text(LOOP)
+    scene = Path(__file__).resolve().parent.parent / "scenarios" / "paper_fitted.toml"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    loop = subprocess.Popen([sys.executable, str(script), str(scene)], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert loop.stdout is not None
+        pid = int(loop.stdout.readline())
+        time.sleep(2.0)  # the worker starts meanwhile
+        loop.send_signal(signal.SIGINT)
+        loop.wait(timeout=WAIT)
+    finally:
+        loop.kill()
+    assert loop.returncode != 0  # KeyboardInterrupt
+    deadline = time.monotonic() + 30.0
+    while not gone(pid):  # the worker is not the test's child: poll until it has been reaped
+        assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
+        time.sleep(0.1)
