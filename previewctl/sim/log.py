@@ -48,6 +48,11 @@ class RunResult:
         min_distance: ``(T,)`` smallest clearance [m].
         collision: ``(T,)`` exact collision flag.
         cycle_time: ``(T,)`` wall time of each control cycle (kinematics + command) [s].
+        loop_time: ``(T,)`` wall time of each whole cycle of the loop [s]: the integration, the exact check, the
+            control cycle and the logging (what a real-time loop must fit in its period ``dt``).
+        plan_age: ``(T,)`` background planning: the age [s] of the searches' or the planner's result in use
+            (NaN with none, and with inline planning).
+        fallback: ``(T,)`` background planning: the cycle ran the ``qp`` law for want of a valid result.
         frame_due: ``(T,)`` whether a camera frame arrived at the step.
         velocity_scale: ``(T,)`` task scaling of the joint-limit saturation (1 = the whole task velocity).
         velocity_limits: ``(nv,)`` joint speed limits used [rad/s] (``inf`` = none).
@@ -86,6 +91,9 @@ class RunResult:
     min_distance: Array
     collision: NDArray[np.bool_]
     cycle_time: Array
+    loop_time: Array
+    plan_age: Array
+    fallback: NDArray[np.bool_]
     frame_due: NDArray[np.bool_]
     velocity_scale: Array
     velocity_limits: Array
@@ -137,8 +145,11 @@ class RunResult:
         ``self_influence_distance``, a lower bound at least that above it; ``None`` without self pairs),
         ``max_hand_error`` [m], ``error_time`` [s], ``min_clearance`` [m] (``None`` without obstacles),
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
-        ``cycle_time_median``, ``cycle_time_p99``, ``cycle_time_max`` [s], ``execution``, ``composition``,
-        ``max_slack`` [m/s].
+        ``cycle_time_median``, ``cycle_time_p99``, ``cycle_time_max`` [s] (the control cycles), ``execution``,
+        ``composition``, ``max_slack`` [m/s]; and how the whole cycles fit their period ``dt`` (:attr:`loop_time`):
+        ``cycle_p50``, ``cycle_p99``, ``cycle_max`` [s], ``deadline_misses`` (the cycles longer than ``dt``), and
+        of background planning ``plan_age_p95`` [s] (``None`` without a result in use, e.g. inline) and
+        ``fallback_fraction`` (the fraction of cycles that ran the ``qp`` law instead; 0 inline).
         """
         k, s, e = self.collision_index, self.self_collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))
@@ -180,6 +191,19 @@ class RunResult:
             "execution": self.execution,
             "composition": self.composition,
             "max_slack": float(self.slack.max()) if self.steps else 0.0,
+            **self._timing(),
+        }
+
+    def _timing(self) -> dict[str, Any]:
+        """The summary's figures of how the cycles fit their period (:meth:`summary`)."""
+        ages = self.plan_age[np.isfinite(self.plan_age)]
+        return {
+            "cycle_p50": float(np.median(self.loop_time)),
+            "cycle_p99": float(np.percentile(self.loop_time, 99)),
+            "cycle_max": float(self.loop_time.max()),
+            "deadline_misses": int(np.count_nonzero(self.loop_time > self.dt)),
+            "plan_age_p95": float(np.percentile(ages, 95)) if ages.size else None,
+            "fallback_fraction": float(self.fallback.mean()) if self.steps else 0.0,
         }
 
 
@@ -226,18 +250,20 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
     except (OSError, ValueError) as exc:
         raise PreviewctlError(f"cannot read {str(npz_path)!r}: {exc}") from exc
     types = get_type_hints(RunResult)
-    if "t" in stored:
-        stored = {**_added_later(stored["t"].shape[0]), **stored}
+    if "t" in stored and "cycle_time" in stored:
+        stored = {**_added_later(stored["t"].shape[0], stored["cycle_time"]), **stored}
     missing = sorted(set(types) - set(stored))
     if missing:
         raise PreviewctlError(f"{str(npz_path)!r} lacks {', '.join(missing)}")
     return RunResult(**{name: _restored(stored[name], kind) for name, kind in types.items()})
 
 
-def _added_later(steps: int) -> dict[str, NDArray[Any]]:
-    """The members a log written by an older previewctl lacks, as that run had them: no self pair measured, and
-    no composition recorded (an empty text)."""
-    return {"self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
+def _added_later(steps: int, cycle_time: NDArray[Any]) -> dict[str, NDArray[Any]]:
+    """The members a log written by an older previewctl lacks, as that run had them: no self pair measured, no
+    composition recorded (an empty text), inline planning, and no whole cycle timed (taken as its control cycle,
+    ``cycle_time``, a lower bound)."""
+    return {"loop_time": cycle_time, "plan_age": np.full(steps, np.nan), "fallback": np.zeros(steps, dtype=bool),
+            "self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
             "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str),
             "composition": np.array("")}
 

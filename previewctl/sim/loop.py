@@ -1,18 +1,22 @@
 """Closed-loop kinematic simulation of a scenario.
 
 Before the first step, a start ``q0`` in collision is refused as bad input
-(:func:`~previewctl.sim.start.check_start`: nothing runs, nothing is logged). The loop, with control period ``dt``:
+(:func:`~previewctl.sim.start.check_start`: nothing runs, nothing is logged). The loop, with control period ``dt``,
+at each tick ``t_k`` of its clock (:mod:`previewctl.sim.clock`: ``t_k = k dt`` in simulated time, the default; the
+wall time since the start with ``rate``, real time):
 
-1. at ``t_k = k dt`` the state is checked exactly: AMSIP, per-link clearance and collision, the smallest distance
+1. ``q ← q ⊕ q̇ (t_k − t_{k−1})``, the previous command applied for the time elapsed
+   (:func:`~previewctl.kinematics.integrate`);
+2. the state is checked exactly: AMSIP, per-link clearance and collision, the smallest distance
    between the arm's self pairs and self-collision, from an :class:`~previewctl.index.evaluator.Evaluator` on the
    robot loaded with ``geometry="mesh"`` (the exact URDF geometry, and its own self pairs; for planar4 the same
    cylinders, and no self pairs);
-2. a collision, with an obstacle or with itself, stops the run there (unless ``stop_on_collision=False``); the
+3. a collision, with an obstacle or with itself, stops the run there (unless ``stop_on_collision=False``); the
    colliding step is the last row of the log, with ``q̇ = 0``;
-3. the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with ``time.perf_counter``; the
-   controller runs a GA generation when ``t_k`` enters a new camera frame
-   (:class:`~previewctl.control.controller.Controller`);
-4. ``q ← q ⊕ q̇ dt`` (:func:`~previewctl.kinematics.integrate`).
+4. the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with ``time.perf_counter`` (``cycle_time``),
+   and so is the whole cycle, steps 1-4 and the logging (``loop_time``: what a real-time loop must fit in ``dt``);
+   the controller runs a GA generation when ``t_k`` enters a new camera frame
+   (:class:`~previewctl.control.controller.Controller`).
 
 The last row is the state at ``duration`` (its command is computed and logged but not applied).
 The simulator is one user of :meth:`Controller.step <previewctl.control.controller.Controller.step>`:
@@ -23,24 +27,26 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
 
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
-from previewctl.control.factory import make_controller
+from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
 from previewctl.control.tracking import effective_velocity_limits, task_target
-from previewctl.errors import PreviewctlError
+from previewctl.errors import ParameterError, PreviewctlError
 from previewctl.index.evaluator import Evaluation, Evaluator
 from previewctl.kinematics import integrate
 from previewctl.robot.model import Robot
+from previewctl.sim.clock import Tick, simulated_ticks, wall_ticks
 from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario, Verdict
 from previewctl.sim.start import check_start
 from previewctl.sim.start import exact_evaluator as exact_evaluator_of
 from previewctl.types import Array, IntArray
+from previewctl.validation import real_scalar
 
 _log = logging.getLogger(__name__)
 
@@ -60,6 +66,7 @@ def simulate(
     controller: Controller | None = None,
     exact_evaluator: Evaluator | None = None,
     tolerance: float | None = None,
+    rate: float | None = None,
 ) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -78,6 +85,11 @@ def simulate(
             ``geometry="mesh"``, :func:`~previewctl.sim.start.exact_evaluator`; pass one to share the mesh
             loading between runs).
         tolerance: largest hand error [m] of a successful run (default: the scenario's ``[verdict]``).
+        rate: run in real time at this loop rate [Hz] (the control period is ``1 / rate``, the scenario's ``dt``
+            is not used): the arm advances in wall-clock time (:func:`~previewctl.sim.clock.wall_ticks`), and the
+            controller made here plans in the background if it can (``single``, ``multi``, ``reach``, ``horizon``,
+            ``oracle``; the others have nothing to plan and run inline); it is closed when the run ends, also on
+            Ctrl-C. Default: simulated time, the scenario's ``dt``, inline planning (deterministic).
 
     Returns:
         The log.
@@ -85,8 +97,8 @@ def simulate(
     Raises:
         StartCollisionError: ``scenario.q0`` collides at ``t = 0`` on the exact check
             (:func:`~previewctl.sim.start.check_start`), before anything runs.
-        PreviewctlError: unknown controller name, an exact evaluator for another robot, a tolerance that
-            is not a positive number, ...
+        PreviewctlError: unknown controller name, an exact evaluator for another robot, a tolerance or a rate
+            that is not a positive number, ...
     """
     verdict = scenario.verdict if tolerance is None else Verdict(tolerance)
     if exact_evaluator is None:
@@ -96,17 +108,29 @@ def simulate(
             f"exact evaluator robot has nq={exact_evaluator.robot.nq}, the scenario robot nq={scenario.robot.nq}"
         )
     check_start(scenario, exact_evaluator)  # a start in collision is bad input, refused before the first step
+    dt, steps = scenario.timing.dt, scenario.timing.steps
+    if rate is not None:
+        dt = 1.0 / positive_rate(rate)
+        steps = max(1, round(scenario.timing.duration / dt))
+    owned = controller is None
     if controller is None:
-        controller = make_controller(scenario, name=controller_name, seed=seed)
+        name = controller_name or scenario.controller.name
+        planning = "background" if rate is not None and name in BACKGROUND_CONTROLLERS else "inline"
+        controller = make_controller(scenario, name=name, seed=seed, dt=dt, planning=planning)
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
-    log = _Log(scenario.timing.steps + 1, robot, links, exact_evaluator.robot.self_pairs.pair_links)
-    count = _run(scenario, controller, exact_evaluator, log, progress, stop_on_collision)
-    _log.info("run %r with %s: %d of %d steps", scenario.name, controller.name, count, scenario.timing.steps)
+    log = _Log(steps + 1, dt, robot, links, exact_evaluator.robot.self_pairs.pair_links)
+    ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
+    try:
+        count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision)
+    finally:
+        if owned:  # ends a background worker, also on Ctrl-C
+            controller.close()
+    _log.info("run %r with %s: %d of %d steps", scenario.name, controller.name, count, steps)
     return RunResult(
         scenario=scenario.name,
         controller=controller.name,
         robot=robot.name,
-        dt=scenario.timing.dt,
+        dt=dt,
         joint_names=robot.joint_names,
         link_names=links,
         tolerance=verdict.tolerance,
@@ -118,35 +142,46 @@ def simulate(
     )
 
 
+def positive_rate(rate: object) -> float:
+    """``rate`` as a finite loop rate > 0 [Hz]; :class:`ParameterError` naming it otherwise."""
+    value = real_scalar(rate, "rate", ParameterError)
+    if value <= 0.0:
+        raise ParameterError(f"rate must be a loop rate > 0 [Hz], got {value!r}")
+    return value
+
+
 def _run(
     scenario: Scenario,
     controller: Controller,
     exact: Evaluator,
     log: _Log,
+    ticks: Iterable[Tick],
     progress: Progress | None,
     stop_on_collision: bool,
 ) -> int:
-    """Step the loop, filling ``log``; the number of rows logged."""
-    dt, steps = scenario.timing.dt, scenario.timing.steps
+    """Step the loop over the clock's ``ticks``, filling ``log``; the number of rows logged."""
+    dt, steps = log.period, log.rows - 1
     q = np.array(scenario.q0, dtype=float)
-    for k in range(steps + 1):
-        t = k * dt
+    qdot: Array | None = None
+    for row, (k, t, elapsed) in enumerate(ticks):
+        start = time.perf_counter()
+        if qdot is not None:
+            q = integrate(scenario.robot, q, qdot, elapsed)
         check = exact(q[None, :], t)
-        log.record_check(k, t, q, check)
+        log.record_check(row, t, q, check)
         if (check.collision[0] or check.self_collision[0]) and stop_on_collision:
-            _record_collision(log, k, t, scenario, controller, check)
+            _record_collision(log, row, t, scenario, controller, check)
             if progress is not None:
                 progress(1.0, t)
-            return k + 1
-        start = time.perf_counter()
+            return row + 1
+        step_start = time.perf_counter()
         qdot = controller.step(q, t, dt)
-        log.columns["cycle_time"][k] = time.perf_counter() - start
-        log.record_command(k, controller.last_info, qdot)
-        if k < steps:
-            q = integrate(scenario.robot, q, qdot, dt)
+        log.columns["cycle_time"][row] = time.perf_counter() - step_start
+        log.record_command(row, controller.last_info, qdot)
+        log.columns["loop_time"][row] = time.perf_counter() - start
         if progress is not None:
             progress(k / steps, t)
-    return steps + 1
+    return row + 1
 
 
 def _record_collision(
@@ -162,15 +197,16 @@ class _Log:
     """The log of a run being simulated: one row per step, allocated for the whole run.
 
     Args:
-        rows: the number of rows (steps + 1).
+        rows: the number of rows (steps + 1; a real-time run may log fewer).
+        period: the control period [s].
         robot: the arm (its ``nq``, ``nv`` and task).
         links: the guarded links of the exact check.
         pair_links: for each self pair (geometry pair) of the exact check, its link pair's index.
     """
 
-    def __init__(self, rows: int, robot: Robot, links: tuple[str, ...], pair_links: IntArray) -> None:
+    def __init__(self, rows: int, period: float, robot: Robot, links: tuple[str, ...], pair_links: IntArray) -> None:
         nq, nv = robot.nq, robot.nv
-        self.rows, self.nq = rows, nq
+        self.rows, self.period, self.nq = rows, period, nq
         self.pair_links = pair_links
         self.position_rows = 2 if robot.task == "planar" else 3
         self.columns: dict[str, Any] = {
@@ -187,6 +223,9 @@ class _Log:
             "min_distance": np.zeros(rows),
             "collision": np.zeros(rows, dtype=bool),
             "cycle_time": np.zeros(rows),
+            "loop_time": np.zeros(rows),
+            "plan_age": np.full(rows, np.nan),
+            "fallback": np.zeros(rows, dtype=bool),
             "frame_due": np.zeros(rows, dtype=bool),
             "velocity_scale": np.ones(rows),
             "slack": np.zeros(rows),
@@ -221,6 +260,8 @@ class _Log:
         self.record_hand(k, ref.hand_position, ref.desired_position)
         c["qdot"][k], c["qdot_requested"][k] = qdot, executed.requested
         c["velocity_scale"][k], c["frame_due"][k], c["slack"][k] = executed.scale, info.frame_due, executed.slack
+        c["plan_age"][k] = np.nan if info.plan_age is None else info.plan_age
+        c["fallback"][k] = info.fallback
         if info.targets is not None and info.target_amsip is not None:
             if self.targets is None or self.target_S is None:
                 p = info.targets.shape[0]

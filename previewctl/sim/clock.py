@@ -1,0 +1,66 @@
+"""The simulation's clock: simulated time (the loop waits for the controller) or real time (the controller must keep
+up with the wall clock).
+
+A clock yields the loop's cycles as :class:`Tick`\\ s, the deadlines ``k period`` for ``k = 0 .. steps``:
+
+* :func:`simulated_ticks`: every deadline, at its own time ``t_k = k dt``, whatever the cycles cost;
+* :func:`wall_ticks`: the simulated time is the wall time since the first tick (``time.perf_counter``, monotonic),
+  so the arm integrates ``q̇`` over the real period elapsed. The clock sleeps to each deadline, absolute from the
+  start (no drift), sleeping to just before it and spinning the rest (``time.sleep`` overshoots by 50-100 µs). A
+  cycle that overruns its period skips the deadlines it passed, without a burst to catch up: the next tick is the
+  first deadline still ahead, and its ``elapsed`` covers the whole time the command was applied.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from typing import NamedTuple
+
+SPIN = 2e-4
+"""The last stretch [s] before a deadline that :func:`wall_ticks` spins instead of sleeping."""
+
+
+class Tick(NamedTuple):
+    """One cycle of the loop.
+
+    Attributes:
+        k: its deadline's index (``0 .. steps``; a real-time clock skips the deadlines an overrun passed).
+        t: its time [s] (the simulated time the arm is at).
+        elapsed: time [s] since the previous tick: how long the previous command was applied (``period`` at the
+            first tick, where nothing was applied).
+    """
+
+    k: int
+    t: float
+    elapsed: float
+
+
+def simulated_ticks(dt: float, steps: int) -> Iterator[Tick]:
+    """Every deadline at its own time ``k dt`` [s], ``k = 0 .. steps``."""
+    for k in range(steps + 1):
+        yield Tick(k, k * dt, dt)
+
+
+def wall_ticks(period: float, steps: int) -> Iterator[Tick]:
+    """The deadlines ``k period`` [s] of the wall clock since the first tick, ``k = 0 .. steps``, each tick at the
+    wall time it woke (module docstring); the last one is deadline ``steps``, late if its cycle overran."""
+    start = time.perf_counter()
+    k, last = 0, 0.0
+    yield Tick(0, 0.0, period)
+    while k < steps:
+        k = min(steps, max(k + 1, math.floor((time.perf_counter() - start) / period) + 1))
+        _sleep_until(start + k * period)
+        t = time.perf_counter() - start
+        yield Tick(k, t, t - last)
+        last = t
+
+
+def _sleep_until(deadline: float) -> None:
+    """Return at ``deadline`` (a ``time.perf_counter`` reading [s]) or just after it: sleep, then spin."""
+    ahead = deadline - time.perf_counter()
+    if ahead > SPIN:
+        time.sleep(ahead - SPIN)
+    while time.perf_counter() < deadline:
+        pass
