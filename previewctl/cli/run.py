@@ -14,9 +14,10 @@ from previewctl.cli.common import (
     seed_value,
 )
 from previewctl.control.params import CONTROLLER_NAMES
+from previewctl.errors import PreviewctlError
 from previewctl.files import atomic_folder, check_output_folder
 from previewctl.sim.log import save_run
-from previewctl.sim.loop import simulate
+from previewctl.sim.loop import positive_rate, simulate
 from previewctl.sim.scenario import load_scenario
 from previewctl.sim.start import check_start, exact_evaluator
 from previewctl.sim.verdict import self_collision_text, verdict_text
@@ -54,21 +55,45 @@ def add_parser(commands: Commands) -> None:
     run.add_argument("--no-gif", action="store_true", help="do not write the animated GIF")
     run.add_argument("--view", action="store_true",
                      help=f"also write the 3-D replay (OUT/{REPLAY_NAME}, opens from disk in a browser)")
+    run.add_argument("--realtime", action="store_true",
+                     help="run in real time: the simulated arm advances with the wall clock at --rate, each cycle "
+                     "sleeping to its deadline (an overrun is counted as a deadline miss, not caught up), and the "
+                     "searches and planner run in a worker process beside the loop ('none', 'qp' and 'gradient' "
+                     "have nothing to plan and run inline); not reproducible. Ctrl-C ends the worker too (exit 130)")
+    run.add_argument("--rate", type=rate_value,
+                     help=f"loop rate of --realtime [Hz] (default {DEFAULT_RATE:g}; the control period is 1/rate, "
+                     "not the scenario's dt)")
     add_json_option(run, "the run's summary (summary.json) and the files written")
     run.set_defaults(func=cmd_run)
 
 
+DEFAULT_RATE = 250.0
+"""Loop rate of ``run --realtime`` [Hz] unless ``--rate`` says otherwise."""
+
+
+def rate_value(text: str) -> float:
+    """An argparse ``type``: a loop rate > 0 [Hz] (:func:`~previewctl.sim.loop.positive_rate`)."""
+    try:
+        return positive_rate(float(text))
+    except (ValueError, PreviewctlError):
+        raise argparse.ArgumentTypeError(f"must be a loop rate > 0 [Hz], got {text!r}") from None
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a scenario file: progress bar on stderr, summary table, log and figures in --out."""
+    if args.rate is not None and not args.realtime:
+        raise PreviewctlError(f"--rate {args.rate:g} sets the loop rate of --realtime: add --realtime, or drop --rate")
     scenario = load_scenario(args.scenario, auto_start=args.q0 == "auto")
     name = args.controller or scenario.controller.name
     exact = exact_evaluator(scenario)
     check_start(scenario, exact)  # before --out is checked (its parents created): a bad start writes nothing
-    out = check_output_folder(args.out or Path("out") / f"{scenario.name}-{name}")
+    clock = "-realtime" if args.realtime else ""
+    out = check_output_folder(args.out or Path("out") / f"{scenario.name}-{name}{clock}")
     bar = ProgressBar()
     try:
         result = simulate(scenario, name, progress=bar.update, stop_on_collision=not args.continue_after_collision,
-                          seed=args.seed, exact_evaluator=exact, tolerance=args.tolerance)
+                          seed=args.seed, exact_evaluator=exact, tolerance=args.tolerance,
+                          rate=(args.rate or DEFAULT_RATE) if args.realtime else None)
     finally:
         bar.close()
     summary = result.summary()
@@ -94,6 +119,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     self_collision = f"NO: {self_collision_text(summary)}" if summary["self_collided"] else "yes"
     pairs = len(result.self_pairs)
     error = f"{metre(summary['max_hand_error'])} (tolerance {metre(summary['tolerance'])})"
+    age = summary["plan_age_p95"]
     rows = [
         ("scenario", f"{scenario.name} ({scenario.robot.name}, {summary['steps']} steps, {summary['duration']:.2f} s)"),
         ("controller", f"{summary['controller']}, executed by "
@@ -109,6 +135,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         ("max |qdot|", f"{summary['max_abs_qdot']:.4f} rad/s ({100 * summary['max_qdot_ratio']:.0f}% of limit)"),
         ("cycle time median / max",
          f"{summary['cycle_time_median'] * 1e3:.2f} / {summary['cycle_time_max'] * 1e3:.2f} ms"),
+        ("whole cycle p50/p99/max", f"{summary['cycle_p50'] * 1e3:.2f} / {summary['cycle_p99'] * 1e3:.2f} / "
+                                    f"{summary['cycle_max'] * 1e3:.2f} ms"),
+        ("deadline misses", f"{summary['deadline_misses']} of {summary['steps']} cycles longer than "
+                            f"{result.dt * 1e3:g} ms" + (" (real time)" if args.realtime else " (simulated time)")),
+        ("plan age p95 / fallback", f"{'-' if age is None else f'{age * 1e3:.0f} ms'} / "
+                                    f"{100 * summary['fallback_fraction']:.1f}% of cycles"),
     ]
     for label, value in rows:
         print(f"{label:<26}{value}")

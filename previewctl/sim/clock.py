@@ -30,11 +30,14 @@ class Tick(NamedTuple):
         t: its time [s] (the simulated time the arm is at).
         elapsed: time [s] since the previous tick: how long the previous command was applied (``period`` at the
             first tick, where nothing was applied).
+        late: how long after its deadline the tick woke [s] (0 in simulated time): the cycle has ``period − late``
+            left before the next deadline.
     """
 
     k: int
     t: float
     elapsed: float
+    late: float = 0.0
 
 
 def simulated_ticks(dt: float, steps: int) -> Iterator[Tick]:
@@ -53,7 +56,7 @@ def wall_ticks(period: float, steps: int) -> Iterator[Tick]:
         k = min(steps, max(k + 1, math.floor((time.perf_counter() - start) / period) + 1))
         _sleep_until(start + k * period)
         t = time.perf_counter() - start
-        yield Tick(k, t, t - last)
+        yield Tick(k, t, t - last, t - k * period)
         last = t
 
 

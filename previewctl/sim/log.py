@@ -48,8 +48,9 @@ class RunResult:
         min_distance: ``(T,)`` smallest clearance [m].
         collision: ``(T,)`` exact collision flag.
         cycle_time: ``(T,)`` wall time of each control cycle (kinematics + command) [s].
-        loop_time: ``(T,)`` wall time of each whole cycle of the loop [s]: the integration, the exact check, the
-            control cycle and the logging (what a real-time loop must fit in its period ``dt``).
+        loop_time: ``(T,)`` wall time of each whole cycle of the loop from its deadline [s]: the clock's wake-up
+            latency (real time), the integration, the exact check, the control cycle and the logging; over ``dt``,
+            the cycle missed the next deadline.
         plan_age: ``(T,)`` background planning: the age [s] of the searches' or the planner's result in use
             (NaN with none, and with inline planning).
         fallback: ``(T,)`` background planning: the cycle ran the ``qp`` law for want of a valid result.
@@ -147,9 +148,10 @@ class RunResult:
         ``mean_S``, ``min_S``, ``max_abs_qdot`` [rad/s], ``max_qdot_ratio`` (largest ``|q̇_j| / q̇max_j``),
         ``cycle_time_median``, ``cycle_time_p99``, ``cycle_time_max`` [s] (the control cycles), ``execution``,
         ``composition``, ``max_slack`` [m/s]; and how the whole cycles fit their period ``dt`` (:attr:`loop_time`):
-        ``cycle_p50``, ``cycle_p99``, ``cycle_max`` [s], ``deadline_misses`` (the cycles longer than ``dt``), and
-        of background planning ``plan_age_p95`` [s] (``None`` without a result in use, e.g. inline) and
-        ``fallback_fraction`` (the fraction of cycles that ran the ``qp`` law instead; 0 inline).
+        ``cycle_p50``, ``cycle_p99``, ``cycle_max`` [s], ``deadline_misses`` (the cycles longer than ``dt``: each
+        missed the next deadline), and of background planning ``plan_age_p95`` [s] (``None`` without a result in
+        use, e.g. inline) and ``fallback_fraction`` (the fraction of cycles that ran the ``qp`` law instead; 0
+        inline).
         """
         k, s, e = self.collision_index, self.self_collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))

@@ -14,7 +14,8 @@ wall time since the start with ``rate``, real time):
 3. a collision, with an obstacle or with itself, stops the run there (unless ``stop_on_collision=False``); the
    colliding step is the last row of the log, with ``q̇ = 0``;
 4. the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with ``time.perf_counter`` (``cycle_time``),
-   and so is the whole cycle, steps 1-4 and the logging (``loop_time``: what a real-time loop must fit in ``dt``);
+   and so is the whole cycle from its deadline: the clock's wake-up latency, steps 1-4 and the logging
+   (``loop_time``: longer than ``dt``, the cycle missed the next deadline);
    the controller runs a GA generation when ``t_k`` enters a new camera frame
    (:class:`~previewctl.control.controller.Controller`).
 
@@ -89,7 +90,9 @@ def simulate(
             is not used): the arm advances in wall-clock time (:func:`~previewctl.sim.clock.wall_ticks`), and the
             controller made here plans in the background if it can (``single``, ``multi``, ``reach``, ``horizon``,
             ``oracle``; the others have nothing to plan and run inline); it is closed when the run ends, also on
-            Ctrl-C. Default: simulated time, the scenario's ``dt``, inline planning (deterministic).
+            Ctrl-C. The clock starts once the planning worker has answered the start state (a robot holds still
+            until its planner is ready), or failed. Default: simulated time, the scenario's ``dt``, inline planning
+            (deterministic).
 
     Returns:
         The log.
@@ -119,8 +122,10 @@ def simulate(
         controller = make_controller(scenario, name=name, seed=seed, dt=dt, planning=planning)
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
     log = _Log(steps + 1, dt, robot, links, exact_evaluator.robot.self_pairs.pair_links)
-    ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
     try:
+        if rate is not None:
+            _wait_for_planning(controller, scenario.q0, dt)
+        ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
         count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
@@ -140,6 +145,19 @@ def simulate(
         self_pairs=exact_evaluator.robot.self_pairs.links,
         **log.arrays(count),
     )
+
+
+def _wait_for_planning(controller: Controller, q0: Array, dt: float) -> None:
+    """Before a real-time run, as a robot holds still until its planner is ready: step ``controller`` at the start
+    (``q0``, ``t = 0``, not logged) every ``dt`` [s] until its background worker's first result arrives, or the
+    worker fails (its start counts against its timeout); at once with inline planning."""
+    start = time.perf_counter()
+    while controller.planning is not None:
+        controller.step(q0, 0.0, dt)
+        if controller.last_info.plan_age is not None or controller.last_info.worker_error is not None:
+            break
+        time.sleep(dt)
+    _log.info("planning ready after %.2f s", time.perf_counter() - start)
 
 
 def positive_rate(rate: object) -> float:
@@ -163,8 +181,8 @@ def _run(
     dt, steps = log.period, log.rows - 1
     q = np.array(scenario.q0, dtype=float)
     qdot: Array | None = None
-    for row, (k, t, elapsed) in enumerate(ticks):
-        start = time.perf_counter()
+    for row, (k, t, elapsed, late) in enumerate(ticks):
+        start = time.perf_counter() - late  # the cycle's deadline
         if qdot is not None:
             q = integrate(scenario.robot, q, qdot, elapsed)
         check = exact(q[None, :], t)
