@@ -4,8 +4,13 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import re
+import signal
+import subprocess
+import sys
+import time
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
@@ -437,3 +442,161 @@ def test_cli_run_prints_the_self_collision_and_exits_3(into_its_base: tuple[Path
     assert re.search(r"success\s+NO: self-collision at t = 3\.820 s: panda_link1 hits panda_leftfinger", out)
     assert re.search(r"collision-free\s+yes", out)  # the obstacle line reads as before
     assert json.loads((tmp_path / "out" / SUMMARY_NAME).read_text())["failure"] == "self-collision"
+
+
+# ------------------------------------------------------------------------------------------- real time
+
+TIMING_KEYS = ("cycle_p50", "cycle_p99", "cycle_max", "deadline_misses", "plan_age_p95", "fallback_fraction")
+
+
+def sane_timing(summary: dict[str, Any]) -> None:
+    """The summary's cycle figures are ordered and in range."""
+    assert 0 < summary["cycle_p50"] <= summary["cycle_p99"] <= summary["cycle_max"]
+    assert isinstance(summary["deadline_misses"], int) and 0 <= summary["deadline_misses"] <= summary["steps"]
+    assert 0.0 <= summary["fallback_fraction"] <= 1.0
+
+
+def test_a_real_time_run_waits_for_the_wall_clock_and_plans_in_the_background() -> None:
+    scenario = scenario_from_dict(planar_doc(controller={"name": "multi"}, timing={"duration": 1.0}))
+    start = time.perf_counter()
+    run = simulate(scenario, rate=100.0)
+    wall = time.perf_counter() - start
+    assert run.dt == 0.01 and run.t[-1] >= 1.0 and wall >= run.t[-1]  # it waited for the clock
+    assert run.steps <= 101 and (np.diff(run.t) > 0).all()
+    # the arm integrates each command over the wall time it was applied
+    np.testing.assert_allclose(run.q[1:], run.q[:-1] + run.qdot[:-1] * np.diff(run.t)[:, None], atol=1e-12)
+    assert "background" in run.composition
+    assert np.isfinite(run.plan_age).any()  # the clock started once the worker had answered
+    summary = run.summary()
+    sane_timing(summary)
+    assert summary["plan_age_p95"] >= 0.0
+    assert summary["deadline_misses"] == int((run.loop_time > 0.01).sum())
+    assert not multiprocessing.active_children()  # the worker ended with the run
+
+
+def test_a_controller_with_nothing_to_plan_runs_inline_at_real_time() -> None:
+    scenario = scenario_from_dict(planar_doc(controller={"name": "qp"}, timing={"duration": 0.3}))
+    start = time.perf_counter()
+    run = simulate(scenario, rate=50.0)
+    assert time.perf_counter() - start >= run.t[-1] >= 0.3 and run.dt == 0.02
+    assert "background" not in run.composition
+    summary = run.summary()
+    sane_timing(summary)
+    assert summary["plan_age_p95"] is None and summary["fallback_fraction"] == 0.0
+
+
+@pytest.mark.parametrize("rate", [0.0, -250.0, float("nan"), "fast"])
+def test_a_bad_rate_is_refused(rate: Any) -> None:
+    scenario = scenario_from_dict(planar_doc(timing={"duration": 0.1}))
+    with pytest.raises(PreviewctlError, match="rate must be"):
+        simulate(scenario, rate=rate)
+
+
+def test_an_inline_summary_has_the_cycle_figures_without_planning(short_run: tuple[Scenario, RunResult]) -> None:
+    _, run = short_run
+    summary = run.summary()
+    sane_timing(summary)
+    assert (run.loop_time >= run.cycle_time).all()  # the whole cycle holds the control cycle
+    assert summary["plan_age_p95"] is None and summary["fallback_fraction"] == 0.0
+    assert np.isnan(run.plan_age).all() and not run.fallback.any()
+
+
+def test_an_older_log_loads_as_inline_with_its_control_cycles_as_whole_cycles(
+    short_run: tuple[Scenario, RunResult], tmp_path: Path
+) -> None:
+    _, run = short_run
+    save_run(run, tmp_path / "new")
+    with np.load(tmp_path / "new" / NPZ_NAME) as npz:
+        older = {name: npz[name] for name in npz.files if name not in ("loop_time", "plan_age", "fallback")}
+    (tmp_path / "old").mkdir()
+    np.savez(tmp_path / "old" / NPZ_NAME, **older)
+    old = load_run(tmp_path / "old")
+    np.testing.assert_array_equal(old.loop_time, run.cycle_time)
+    assert np.isnan(old.plan_age).all() and not old.fallback.any()
+    assert old.summary()["cycle_max"] == pytest.approx(run.cycle_time.max())
+    assert old.summary()["plan_age_p95"] is None
+
+
+def realtime_scenario(folder: Path, duration: float) -> Path:
+    path = folder / "rt.toml"
+    path.write_text(tiny_planar_toml("rt", f'[controller]\nname = "multi"\n[timing]\nduration = {duration}\n'
+                                           "[output]\nfigures = []\ngif = false\n"))
+    return path
+
+
+def test_cli_run_realtime_prints_and_writes_the_cycle_figures(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = realtime_scenario(tmp_path, 0.5)
+    assert main(["run", str(scenario), "--realtime", "--rate", "100", "--out", str(tmp_path / "o"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)["summary"]
+    assert set(TIMING_KEYS) <= set(summary) and summary == load_summary(tmp_path / "o")
+    sane_timing(summary)
+    assert load_run(tmp_path / "o").dt == 0.01
+    assert main(["run", str(scenario), "--realtime", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"deadline misses +\d+ of \d+ cycles longer than 4 ms \(real time\)", out)
+    assert re.search(r"plan age p95 / fallback +\d+ ms / [\d.]+% of cycles", out)
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--realtime", "--rate", "0"], "argument --rate: must be a loop rate > 0 [Hz], got '0'"),
+    (["--realtime", "--rate", "-5"], "argument --rate: must be a loop rate > 0 [Hz], got '-5'"),
+    (["--realtime", "--rate", "fast"], "argument --rate: must be a loop rate > 0 [Hz], got 'fast'"),
+    (["--rate", "100"], "--rate 100 sets the loop rate of --realtime: add --realtime, or drop --rate"),
+])
+def test_cli_run_refuses_a_bad_rate_in_one_line(argv: list[str], message: str, tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    try:
+        code = main(["run", str(realtime_scenario(tmp_path, 0.1)), *argv])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and err.count("\n") == 1
+
+
+def children(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields_ = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        if int(fields_[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie waiting for its parent counts as ended)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_ctrl_c_during_a_real_time_run_exits_130_and_leaves_no_child(tmp_path: Path) -> None:
+    scenario = realtime_scenario(tmp_path, 60.0)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    run = subprocess.Popen([sys.executable, "-m", "previewctl", "run", str(scenario), "--realtime", "--out",
+                            str(tmp_path / "o")], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                           env=env)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not (workers := [p for p in children(run.pid)
+                               if "spawn_main" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")]):
+            assert run.poll() is None and time.monotonic() < deadline, "no planning worker started"
+            time.sleep(0.05)
+        time.sleep(1.0)
+        started = children(run.pid)
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=30.0)
+    finally:
+        run.kill()
+    assert run.returncode == 130, err
+    assert "previewctl: interrupted" in err
+    deadline = time.monotonic() + 10.0
+    while left := [p for p in [*workers, *started] if alive(p)]:
+        assert time.monotonic() < deadline, f"processes {left} outlived the run"
+        time.sleep(0.1)
+    assert not (tmp_path / "o").exists()  # nothing half-written
