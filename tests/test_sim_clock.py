@@ -1,4 +1,5 @@
-"""Tests of :mod:`previewctl.sim.clock`: simulated ticks, and wall-clock deadlines without drift or catch-up."""
+"""Tests of :mod:`previewctl.sim.clock`: simulated ticks, and wall-clock deadlines without drift or catch-up (on a
+stand-in clock, so that a loaded host cannot move the deadlines, and once on the real one)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,29 @@ import time
 
 import pytest
 
+import previewctl.sim.clock as clock
 from previewctl.sim.clock import Tick, simulated_ticks, wall_ticks
+
+
+class FakeTime:
+    """A stand-in for the ``time`` module: ``sleep`` advances the clock, and every reading takes 1 µs."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def perf_counter(self) -> float:
+        self.now += 1e-6
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+@pytest.fixture
+def fake(monkeypatch: pytest.MonkeyPatch) -> FakeTime:
+    stand_in = FakeTime()
+    monkeypatch.setattr(clock, "time", stand_in)
+    return stand_in
 
 
 def test_simulated_ticks_are_every_deadline_at_its_own_time() -> None:
@@ -14,31 +37,37 @@ def test_simulated_ticks_are_every_deadline_at_its_own_time() -> None:
     assert ticks == [Tick(0, 0.0, 0.01), Tick(1, 0.01, 0.01), Tick(2, 0.02, 0.01), Tick(3, 0.03, 0.01)]
 
 
-def test_wall_ticks_wait_for_each_deadline_and_time_is_the_wall_time() -> None:
-    start = time.perf_counter()
-    ticks = list(wall_ticks(0.01, 10))
-    wall = time.perf_counter() - start
-    assert [tick.k for tick in ticks] == list(range(11))
-    for tick in ticks:
-        assert tick.t >= tick.k * 0.01 and tick.late == pytest.approx(tick.t - tick.k * 0.01)
-    assert wall >= 0.1  # it waited for the last deadline
+def test_short_cycles_wake_at_every_deadline_without_drift(fake: FakeTime) -> None:
+    ticks = []
+    for tick in wall_ticks(0.004, 250):
+        ticks.append(tick)
+        fake.now += 0.001  # the cycle's work
+    assert [tick.k for tick in ticks] == list(range(251))
+    for tick in ticks[1:]:
+        assert 0.0 <= tick.late < 1e-4 and tick.t == pytest.approx(tick.k * 0.004, abs=1e-4)  # no drift
     assert sum(tick.elapsed for tick in ticks[1:]) == pytest.approx(ticks[-1].t)  # the elapsed periods tile time
 
 
-def test_an_overrun_skips_the_deadlines_it_passed_without_a_burst() -> None:
+def test_an_overrun_skips_the_deadlines_it_passed_without_a_burst(fake: FakeTime) -> None:
     ticks = wall_ticks(0.01, 10)
     assert next(ticks).k == 0
-    time.sleep(0.035)  # the cycle overruns three deadlines
+    fake.now += 0.035  # the cycle overruns three deadlines
     late = next(ticks)
-    assert late.k >= 4 and late.elapsed >= 0.035  # the next deadline ahead, and the whole time it took
-    after = next(ticks)
-    assert after.k == late.k + 1 and after.t >= after.k * 0.01  # then on the grid again: no catching up
-    assert list(ticks)[-1].k == 10
+    assert late.k == 4 and late.t == pytest.approx(0.04, abs=1e-4)  # the first deadline still ahead
+    assert late.elapsed == pytest.approx(0.04, abs=1e-4)  # the previous command was applied all that time
+    assert next(ticks).k == 5  # then on the grid again: no catching up
 
 
-def test_a_cycle_past_the_last_deadline_ends_the_run_there() -> None:
+def test_a_cycle_past_the_last_deadline_ends_the_run_there(fake: FakeTime) -> None:
     ticks = wall_ticks(0.01, 2)
     next(ticks)
-    time.sleep(0.05)
+    fake.now += 0.05
     last = next(ticks)
     assert last.k == 2 and last.t >= 0.05 and list(ticks) == []
+
+
+def test_the_real_clock_waits_for_each_deadline() -> None:
+    start = time.perf_counter()
+    ticks = list(wall_ticks(0.02, 5))
+    assert time.perf_counter() - start >= 0.1 and ticks[-1].k == 5
+    assert all(tick.t >= tick.k * 0.02 for tick in ticks)
