@@ -42,7 +42,8 @@ def add_parser(commands: Commands) -> None:
                      help="override the scenario's controller ('horizon': the reachability DP over the preview "
                      "window, replanned; 'oracle': non-causal, follows the DP's best motion over the whole run, see "
                      "reach-map; on a spatial arm both plan by a sampled search instead of the planar DP)")
-    run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>)")
+    run.add_argument("--out", help="output folder (default out/<scenario name>-<controller>, and -realtime with "
+                     "--realtime)")
     run.add_argument("--seed", type=seed_value, help="random seed (default: the scenario's)")
     run.add_argument("--tolerance", type=float,
                      help="largest hand error [m] of a successful run (default: the scenario's [verdict] "
@@ -60,7 +61,7 @@ def add_parser(commands: Commands) -> None:
                      "sleeping to its deadline (an overrun is counted as a deadline miss, not caught up), and the "
                      "searches and planner run in a worker process beside the loop ('none', 'qp' and 'gradient' "
                      "have nothing to plan and run inline); not reproducible. Ctrl-C ends the worker too (exit 130)")
-    run.add_argument("--rate", type=rate_value,
+    run.add_argument("--rate", type=rate_value, metavar="HZ",
                      help=f"loop rate of --realtime [Hz] (default {DEFAULT_RATE:g}; the control period is 1/rate, "
                      "not the scenario's dt)")
     add_json_option(run, "the run's summary (summary.json) and the files written")
