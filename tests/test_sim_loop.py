@@ -23,6 +23,8 @@ from helpers import planar_doc, tiny_planar_toml
 
 from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
+from previewctl.control.background import BackgroundOptions
+from previewctl.control.factory import make_controller
 from previewctl.control.params import ControllerSpec
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
 from previewctl.robot.model import Robot
@@ -458,15 +460,18 @@ def sane_timing(summary: dict[str, Any]) -> None:
 
 def test_a_real_time_run_waits_for_the_wall_clock_and_plans_in_the_background() -> None:
     scenario = scenario_from_dict(planar_doc(controller={"name": "multi"}, timing={"duration": 1.0}))
+    # results valid for the whole run: a loaded host may stall the loop past the default validity (3 frames)
+    options = BackgroundOptions(arms_valid_frames=1000.0)
     start = time.perf_counter()
-    run = simulate(scenario, rate=100.0)
+    with make_controller(scenario, dt=0.01, planning="background", background=options) as ctrl:
+        run = simulate(scenario, controller=ctrl, rate=100.0)
     wall = time.perf_counter() - start
     assert run.dt == 0.01 and run.t[-1] >= 1.0 and wall >= run.t[-1]  # it waited for the clock
     assert run.steps <= 101 and (np.diff(run.t) > 0).all()
     # the arm integrates each command over the wall time it was applied
     np.testing.assert_allclose(run.q[1:], run.q[:-1] + run.qdot[:-1] * np.diff(run.t)[:, None], atol=1e-12)
     assert "background" in run.composition
-    assert np.isfinite(run.plan_age).any()  # the clock started once the worker had answered
+    assert np.isfinite(run.plan_age[0])  # the clock started once the worker had answered the start state
     summary = run.summary()
     sane_timing(summary)
     assert summary["plan_age_p95"] >= 0.0
@@ -535,7 +540,8 @@ def test_cli_run_realtime_prints_and_writes_the_cycle_figures(tmp_path: Path,
     assert main(["run", str(scenario), "--realtime", "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out
     assert re.search(r"deadline misses +\d+ of \d+ cycles longer than 4 ms \(real time\)", out)
-    assert re.search(r"plan age p95 / fallback +\d+ ms / [\d.]+% of cycles", out)
+    # a result in use, or none ('-') when a loaded host let every result expire
+    assert re.search(r"plan age p95 / fallback +(\d+ ms|-) / [\d.]+% of cycles", out)
 
 
 @pytest.mark.parametrize(("argv", "message"), [
