@@ -411,5 +411,5 @@ def test_a_bench_run_does_not_warn_about_the_scene_table_it_ignores_but_logs_it(
     spec = RunSpec("planar4", 0, 0, "none", "pseudoinverse", settings="test")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        _, result = simulate_spec(spec, scene)
+        _, result, _ = simulate_spec(spec, scene)
     assert "ignored: plan_window = 6.0" in result.composition

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, Any, Literal, get_args
+from typing import Annotated, Any, Final, Literal, get_args
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
@@ -46,7 +46,7 @@ ImaginaryArms = Literal["route", "peaks"]
 """Where coherent ``multi`` puts its imaginary arms: on the route planned as ``reach`` plans it (``route``: where the
 plan puts the arm at the preview times), or each on one tracked GA peak (``peaks``, :mod:`previewctl.control.peaks`);
 see :mod:`previewctl.control.imaginary`."""
-MEASURED = "measured"
+MEASURED: Final = "measured"
 """``plan_latency = "measured"``: each plan arrives after its own measured compute time (see :data:`PlanLatency`)."""
 
 
