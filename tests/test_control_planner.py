@@ -8,15 +8,18 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from helpers import planar_doc
 
 from previewctl.control.base import ControlState
+from previewctl.control.factory import make_controller
+from previewctl.control.laws import Horizon
 from previewctl.control.params import ControllerParams
 from previewctl.control.planner import PlanTiming, WindowPlanner
 from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
-from previewctl.kinematics import kinematics
+from previewctl.kinematics import integrate, kinematics
 from previewctl.sim.paper import shipped_scenarios_dir
-from previewctl.sim.scenario import Scenario, load_scenario
+from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 
 DT = 0.04
 """[s] a control period that 0.1 s is not a multiple of (2.5 periods: the plan must wait 3)."""
@@ -110,3 +113,26 @@ def test_the_plan_latency_names_the_bad_value_and_the_valid_ones(value: object, 
 def test_the_plan_latency_takes_a_time_or_measured() -> None:
     assert ControllerParams(plan_latency="measured").plan_latency == "measured"
     assert ControllerParams(plan_latency=0.25).plan_latency == 0.25
+
+
+def test_a_controller_with_a_measured_latency_follows_each_plan_from_its_arrival() -> None:
+    """A real ``horizon`` run (real CPU times): at every cycle the plan followed is the last one whose made time plus
+    its recorded cost, rounded up to whole periods, has passed; the plan made meanwhile is not followed yet."""
+    scenario = scenario_from_dict(planar_doc(controller={"name": "horizon", "plan_latency": "measured",
+                                                         "preview_time": 0.4}))
+    ctrl = make_controller(scenario)
+    assert isinstance(ctrl.law, Horizon)
+    planner = ctrl.law.planner
+    q, dt, made = np.array(scenario.q0, dtype=float), 0.01, []
+    for k in range(121):
+        t = k * dt
+        qdot = ctrl.step(q, t, dt)
+        assert planner.planned is not None and planner.motion is not None
+        if not made or made[-1] != float(planner.planned.times[0]):
+            made.append(float(planner.planned.times[0]))
+        arrivals = [made[0]] + [m + math.ceil(c / dt - 1e-9) * dt
+                                for m, c in zip(made[1:], planner.costs[1:], strict=True)]
+        expected = max(m for m, a in zip(made, arrivals, strict=True) if a <= t + 1e-9)
+        assert float(planner.motion.times[0]) == pytest.approx(expected), t
+        q = integrate(scenario.robot, q, qdot, dt)
+    assert len(planner.costs) == len(made) >= 3 and all(c > 0 for c in planner.costs)
