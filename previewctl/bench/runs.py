@@ -41,8 +41,9 @@ KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings", "
 INLINE = "none"
 LATENCIES = (INLINE, MEASURED)
 """When a run's plans take effect: ``none``, as the scene's settings say (within the cycle that makes them), or
-``measured``, after each plan's own CPU time (``plan_latency = "measured"``, :data:`~previewctl.control.params.
-PlanLatency`): what planning beside the loop costs, in a run that depends on the host's speed."""
+``measured``, after each plan's own CPU time (``plan_latency = "measured"``,
+:data:`~previewctl.control.params.PlanLatency`): what planning beside the loop costs, in a run that depends on the
+host's speed."""
 LATENCY_CONTROLLERS = ("multi", "reach", "horizon")
 """The controllers whose plans a measured latency delays (the window planner's, replanned); the others run once,
 inline (the ``oracle`` makes one plan, followed at once)."""
