@@ -47,8 +47,7 @@ SCENES_NAME = "scenes.jsonl"
 @dataclass(frozen=True)
 class Sweep(Checked):
     """What to run: robots x scenes x controller seeds x controllers x execution modes x latencies; every field is
-    checked
-    when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
+    checked when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
         robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
