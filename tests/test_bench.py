@@ -19,7 +19,7 @@ from previewctl.bench.metrics import run_metrics
 from previewctl.bench.provenance import source_commit
 from previewctl.bench.report import write_report
 from previewctl.bench.results import append_record, read_records
-from previewctl.bench.runs import RunSpec, settings_hash, simulate_spec
+from previewctl.bench.runs import RunSpec, plan_costs, record_key, settings_hash, simulate_spec
 from previewctl.bench.runs import run as bench_run
 from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
@@ -223,6 +223,8 @@ def test_bench_end_to_end_on_a_local_dask_cluster_and_its_resume_on_a_running_sc
     ({"robots": ("pandas",)}, UnknownNameError, r"unknown robot 'pandas'; valid: planar4, panda, xarm7"),
     ({"controllers": ("multi", "fancy")}, UnknownNameError, r"unknown controller 'fancy'; valid: none, qp, "),
     ({"executions": ("lp",)}, UnknownNameError, r"unknown execution mode 'lp'; valid: qp, pseudoinverse"),
+    ({"latencies": ("measure",)}, UnknownNameError, r"unknown latency 'measure'; valid: none, measured"),
+    ({"latencies": ()}, ParameterError, r"^give at least one latency; valid: none, measured$"),
     ({"settings": {"dt": 0.01}}, ParameterError, r"^settings: .*instance of SceneSettings, got \{'dt': 0\.01\}$"),
 ])
 def test_sweep_names_the_bad_value(kwargs: dict[str, object], error: type[Exception], message: str) -> None:
@@ -255,6 +257,46 @@ def test_the_matrix_holds_each_distinct_run_once() -> None:
     # seeds without 0: the others still run once, as seed 0
     seeded = Sweep(scenes=1, seeds=(4, 2), controllers=("qp", "multi"), executions=("qp",)).runs()
     assert [(s.seed, s.controller) for s in seeded] == [(0, "qp"), (4, "multi"), (2, "multi")]
+
+
+def test_a_measured_latency_adds_runs_of_their_own_key_for_the_replanning_controllers_only() -> None:
+    """``--latency none,measured``: multi, reach and horizon run twice per scene, under distinct keys; qp and the
+    oracle once, inline. A line written before runs had a latency has the inline run's key, so it is not re-run."""
+    sweep = Sweep(scenes=1, controllers=("qp", "multi", "reach", "horizon", "oracle"), executions=("qp",),
+                  latencies=("none", "measured"))
+    runs = [(s.controller, s.latency) for s in sweep.runs()]
+    assert runs == [("qp", "none"), ("multi", "none"), ("reach", "none"), ("horizon", "none"), ("oracle", "none"),
+                    ("multi", "measured"), ("reach", "measured"), ("horizon", "measured")]
+    keys = [s.key for s in sweep.runs()]
+    assert len(set(keys)) == len(keys)
+    inline = sweep.runs()[1]
+    older = {k: v for k, v in dataclasses.asdict(inline).items() if k != "latency"}
+    assert record_key(older) == inline.key != sweep.runs()[5].key
+    assert [s.latency for s in Sweep(scenes=1, controllers=("multi",), executions=("qp",)).runs()] == ["none"]
+
+
+def test_a_run_records_its_plans_cpu_times() -> None:
+    assert plan_costs([]) == {}
+    costs = [0.1 * k for k in range(1, 21)]  # 0.1 .. 2.0 s
+    assert plan_costs(costs) == pytest.approx({"plans": 20, "plan_cpu_p50": 1.05, "plan_cpu_p95": 1.9,
+                                               "plan_cpu_max": 2.0})
+
+
+def test_report_shows_the_measured_latency_rows_beside_the_inline_ones(tmp_path: Path) -> None:
+    timed = {"plans": 16, "plan_cpu_p50": 0.25, "plan_cpu_p95": 0.5, "plan_cpu_max": 0.75}
+    records = [_record(0, "qp", False), _record(0, "multi", True), _record(1, "qp", True), _record(1, "multi", True),
+               {**_record(0, "multi", True), "latency": "measured", **timed},
+               {**_record(1, "multi", False), "latency": "measured", **timed}]
+    text = write_report(records, [], tmp_path)[0].read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| multi")]
+    assert rows[0].startswith("| multi | qp | 2 | 100% |")
+    assert rows[1].startswith("| multi (measured latency) | qp | 2 | 50% |")
+    assert "they are not bit-reproducible" in text and "--latency measured,none`" in text
+    assert "| planar4 | multi (measured latency) | qp | 2 | 16 | 0.250 | 0.500 | 0.750 |" in text
+    assert "| planar4 | multi | qp | 0:0 | - |" in text
+    assert "| planar4 | multi (measured latency) | qp | 0:0 | 1:0 |" in text
+    assert "measured latency" not in write_report(records[:4], [], tmp_path)[0].read_text()
+    assert run_folder(records[4]) == "planar4_000_s0_multi_qp_measured" != run_folder(records[1])
 
 
 @pytest.mark.parametrize("name", [*(n for n in CONTROLLER_NAMES if n not in SEEDED_CONTROLLERS), "single"])
@@ -411,5 +453,5 @@ def test_a_bench_run_does_not_warn_about_the_scene_table_it_ignores_but_logs_it(
     spec = RunSpec("planar4", 0, 0, "none", "pseudoinverse", settings="test")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        _, result = simulate_spec(spec, scene)
+        _, result, _ = simulate_spec(spec, scene)
     assert "ignored: plan_window = 6.0" in result.composition

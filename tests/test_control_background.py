@@ -137,6 +137,8 @@ def test_bad_planning_choices_name_the_valid_ones() -> None:
         pc.make_controller(planar_scenario("gradient"), planning="background")
     with pytest.raises(pc.ParameterError, match="reach plans in the background only with its planner"):
         pc.make_controller(planar_scenario("reach", coherent=False), planning="background")
+    with pytest.raises(pc.ParameterError, match=r"plan_latency = 'measured' stands in for planning beside the loop"):
+        pc.make_controller(planar_scenario("multi", plan_latency="measured"), planning="background")
     with pytest.raises(pc.ParameterError, match="niceness"):
         BackgroundOptions(niceness=20)
     with pytest.raises(pc.ParameterError, match="timeout"):

@@ -87,7 +87,7 @@ def test_the_route_leaves_the_basin_that_the_tracked_peaks_stay_in() -> None:
     for arms in ("route", "peaks"):
         document = dict(scene.document, controller={**scene.document["controller"], "imaginary_arms": arms})
         spec = RunSpec("planar4", 27, 0, "multi", "qp", "test", 6)
-        _, result = simulate_spec(spec, dataclasses.replace(scene, document=document))
+        _, result, _ = simulate_spec(spec, dataclasses.replace(scene, document=document))
         summary = result.summary()
         assert not summary["collided"]
         errors[arms] = summary["max_hand_error"]

@@ -727,7 +727,7 @@ def test_horizon_refuses_a_bad_replan_period_or_window() -> None:
 @pytest.mark.parametrize(("field", "value", "message"), [
     ("replan_period", 0.0, r"^replan_period must be > 0, got 0\.0$"),
     ("window", float("nan"), r"^window must be finite, got nan$"),
-    ("latency", -0.1, r"^latency must be >= 0, got -0\.1$"),
+    ("latency", -0.1, r"^latency must be a time >= 0 \[s\] or 'measured', got -0\.1$"),
     ("lookahead", "0.1", r"^lookahead must be a finite number, got '0\.1'; valid: numbers >= 0$"),
 ])
 def test_plan_timing_names_the_bad_value(field: str, value: object, message: str) -> None:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from previewctl.bench.robots import robot_label
-from previewctl.bench.runs import RunSpec, simulate_spec
+from previewctl.bench.runs import INLINE, RunSpec, simulate_spec
 from previewctl.bench.scenes import BenchScene
 from previewctl.control.params import run_seed
 from previewctl.files import atomic_folder
@@ -32,9 +32,10 @@ CONTRAST = ("multi", "qp")
 
 
 def run_folder(record: dict[str, Any]) -> str:
-    """The folder name of a run under ``OUT/runs/``."""
+    """The folder name of a run under ``OUT/runs/`` (``..._measured`` for a run with a measured latency)."""
+    latency = record.get("latency", INLINE)
     return (f"{robot_label(record['robot'])}_{record['scene']:03d}_s{record['seed']}_{record['controller']}_"
-            f"{record['execution']}")
+            f"{record['execution']}" + ("" if latency == INLINE else f"_{latency}"))
 
 
 def contrasts(records: list[dict[str, Any]]) -> dict[tuple[str, bool], tuple[dict[str, Any], dict[str, Any]]]:
@@ -42,7 +43,8 @@ def contrasts(records: list[dict[str, Any]]) -> dict[tuple[str, bool], tuple[dic
     both under the QP, where exactly one of them succeeds (< 5 mm)."""
     preview, baseline = CONTRAST
     by_key = {(r["robot"], r["scene"], r["seed"], r["controller"], r["execution"]): r
-              for r in sorted(records, key=lambda r: (r["robot"], r["scene"], r["seed"]))}
+              for r in sorted(records, key=lambda r: (r["robot"], r["scene"], r["seed"]))
+              if r.get("latency", INLINE) == INLINE}
     pairs: dict[tuple[str, bool], tuple[dict[str, Any], dict[str, Any]]] = {}
     for (robot, scene, seed, controller, execution), r in by_key.items():
         base = by_key.get((robot, scene, run_seed(baseline, seed), baseline, "qp"))
@@ -54,9 +56,9 @@ def contrasts(records: list[dict[str, Any]]) -> dict[tuple[str, bool], tuple[dic
 def runs_to_keep(records: list[dict[str, Any]], failures: int = FAILURES_KEPT) -> list[dict[str, Any]]:
     """The result lines of the runs to keep (see the module docstring), each once."""
     kept: dict[str, dict[str, Any]] = {}
-    counts: dict[tuple[str, str, str, bool], int] = {}
+    counts: dict[tuple[str, str, str, str, bool], int] = {}
     for r in sorted(records, key=lambda r: (r["robot"], r["scene"], r["seed"])):
-        group = (r["robot"], r["controller"], r["execution"], bool(r["success_5mm"]))
+        group = (r["robot"], r["controller"], r["execution"], r.get("latency", INLINE), bool(r["success_5mm"]))
         if counts.get(group, 0) < (1 if r["success_5mm"] else failures):
             counts[group] = counts.get(group, 0) + 1
             kept.setdefault(run_folder(r), r)
@@ -68,7 +70,7 @@ def runs_to_keep(records: list[dict[str, Any]], failures: int = FAILURES_KEPT) -
 
 def keep_run(spec: RunSpec, scene: BenchScene, folder: str) -> str:
     """Simulate ``spec`` again and write its log, figures (no GIF) and replay into ``folder``; the folder."""
-    scenario, result = simulate_spec(spec, scene)
+    scenario, result, _ = simulate_spec(spec, scene)
     with atomic_folder(Path(folder)) as tmp:
         save_run(result, tmp)
         make_figures(result, scenario, tmp, gif=False)

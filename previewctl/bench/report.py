@@ -13,6 +13,7 @@ from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
 from previewctl.bench.provenance import UNKNOWN, now
+from previewctl.bench.runs import INLINE
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
@@ -31,19 +32,34 @@ def _rate(rows: list[dict[str, Any]], key: str) -> float:
     return sum(bool(r[key]) for r in rows) / len(rows)
 
 
+def _latency(record: dict[str, Any]) -> str:
+    """A run's latency (a line written before runs had one is inline)."""
+    return str(record.get("latency", INLINE))
+
+
+def _label(record: dict[str, Any]) -> str:
+    """A run's row: its controller, e.g. ``multi``, or ``multi (measured latency)`` when its plans took effect
+    after their measured compute time."""
+    latency = _latency(record)
+    return record["controller"] if latency == INLINE else f"{record['controller']} ({latency} latency)"
+
+
 def _order(cell: tuple[str, str]) -> tuple[int, str, int, str]:
-    """Controllers and execution modes in the order the package lists them (unknown names last)."""
+    """Controllers (each inline row, then its latency rows) and execution modes in the order the package lists them
+    (unknown names last)."""
     controllers, executions = control_params.CONTROLLER_NAMES, control_params.EXECUTION_MODES
-    controller, execution = cell
-    return (controllers.index(controller) if controller in controllers else len(controllers), controller,
+    label, execution = cell
+    controller = label.split(" (")[0]
+    return (controllers.index(controller) if controller in controllers else len(controllers), label,
             executions.index(execution) if execution in executions else len(executions), execution)
 
 
 def _groups(records: list[dict[str, Any]]) -> dict[str, dict[tuple[str, str], list[dict[str, Any]]]]:
-    """Records per robot (in the order they first appear), then per ``(controller, execution)`` (:func:`_order`)."""
+    """Records per robot (in the order they first appear), then per ``(row label, execution)`` (:func:`_label`,
+    :func:`_order`)."""
     groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]] = defaultdict(lambda: defaultdict(list))
     for r in records:
-        groups[r["robot"]][(r["controller"], r["execution"])].append(r)
+        groups[r["robot"]][(_label(r), r["execution"])].append(r)
     return {robot: dict(sorted(cells.items(), key=lambda item: _order(item[0]))) for robot, cells in groups.items()}
 
 
@@ -84,6 +100,8 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
             controllers = sorted({r["controller"] for r in mine}, key=lambda c: _order((c, ""))[0])
             executions = sorted({r["execution"] for r in mine})
             command = f"previewctl bench --robot {robot} --scenes {scenes[-1] + 1} --scene-seed {scene_seed}"
+            latencies = sorted({_latency(r) for r in mine})
+            command += f" --latency {','.join(latencies)}" if latencies != [INLINE] else ""
             lines.append(f"| {robot} | {_span(scenes)} | {scene_seed} | {_span([r['seed'] for r in mine])} | "
                          f"{', '.join(controllers)} | {', '.join(executions)} | `{command}` |")
     return [*lines, ""]
@@ -107,10 +125,31 @@ def _rates_table(robot: str, cells: dict[tuple[str, str], list[dict[str, Any]]])
     return [*lines, ""]
 
 
+def _plan_costs(groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]]) -> list[str]:
+    """Per row that made plans: the plans per run and their CPU time (the medians over the runs of each run's p50
+    and p95, and the largest), from the runs that recorded them."""
+    lines = ["## Plan CPU time per row (each run's median and p95, their medians over the runs; the max over all)", "",
+             "| robot | controller | execution | runs | plans per run | plan CPU p50 [s] | p95 [s] | max [s] |",
+             "|---|---|---|---|---|---|---|---|"]
+    rows = 0
+    for robot, cells in groups.items():
+        for (label, execution), records in cells.items():
+            timed = [r for r in records if "plan_cpu_p50" in r]
+            if not timed:
+                continue
+            rows += 1
+            lines.append(f"| {robot} | {label} | {execution} | {len(timed)} | "
+                         f"{statistics.median(r['plans'] for r in timed):.0f} | "
+                         f"{statistics.median(r['plan_cpu_p50'] for r in timed):.3f} | "
+                         f"{statistics.median(r['plan_cpu_p95'] for r in timed):.3f} | "
+                         f"{max(r['plan_cpu_max'] for r in timed):.3f} |")
+    return [*lines, ""] if rows else []
+
+
 def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
     """Scenes where a controller that looks ahead succeeds (< 1 mm) and ``qp`` fails, and the reverse, per robot and
     execution of the controller (``qp`` is always a QP, and the same run for every seed)."""
-    outcome = {(r["robot"], r["scene"], r["seed"], r["controller"], r["execution"]): r for r in records}
+    outcome = {(r["robot"], r["scene"], r["seed"], _label(r), r["execution"]): r for r in records}
     lines = [f"## Preview against the `{BASELINE}` baseline (success < 1 mm, same scene; the baseline is always "
              "executed by the QP and draws no random numbers: its seed-0 run stands for every seed)", ""]
     if not any(r["controller"] == BASELINE for r in records):
@@ -120,7 +159,7 @@ def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
     pairs: dict[tuple[str, str, str], tuple[list[str], list[str]]] = defaultdict(lambda: ([], []))
     for (robot, scene, seed, controller, execution), r in sorted(outcome.items()):
         base = outcome.get((robot, scene, control_params.run_seed(BASELINE, seed), BASELINE, "qp"))
-        if controller not in LOOKING_AHEAD or base is None or r["success_1mm"] == base["success_1mm"]:
+        if r["controller"] not in LOOKING_AHEAD or base is None or r["success_1mm"] == base["success_1mm"]:
             continue
         pairs[(robot, controller, execution)][0 if r["success_1mm"] else 1].append(f"{scene}:{seed}")
     for (robot, controller, execution), (wins, losses) in sorted(pairs.items()):
@@ -176,9 +215,15 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
         lines += ["The witness's oracle run is the `oracle` QP run of its scene (recorded, not run again; its "
                   "CPU time includes the plan). The `oracle`'s other runs follow that plan: their CPU time leaves the "
                   "planning out.", ""]
+    if any(_latency(r) != INLINE for r in records):
+        lines += ["Rows marked *(measured latency)* (`previewctl bench --latency measured`): each plan took effect "
+                  "after its own measured CPU time (`time.process_time`, rounded up to whole control periods), the "
+                  "previous plan until then, and the next plan was made once it had arrived, as a planner beside the "
+                  "loop would. These rows depend on the host's speed and load: they are not bit-reproducible.", ""]
     lines += ["## Success rates", ""]
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
+    lines += _plan_costs(groups)
     lines += _against_baseline(records)
     if kept:
         lines += _kept(records, out)

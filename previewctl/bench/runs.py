@@ -12,6 +12,8 @@ import dataclasses
 import functools
 import hashlib
 import json
+import math
+import statistics
 import time
 import warnings
 from dataclasses import dataclass
@@ -21,9 +23,11 @@ from previewctl.bench.metrics import run_metrics
 from previewctl.bench.robots import cached_robot, profile, urdf_digest
 from previewctl.bench.scenes import BenchScene
 from previewctl.bench.settings import SceneSettings
+from previewctl.control.base import ControlLaw
 from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
-from previewctl.control.params import ControllerSpec, ExecutionMode
+from previewctl.control.params import MEASURED, ControllerSpec, ExecutionMode
+from previewctl.control.planner import WindowPlanner
 from previewctl.errors import IgnoredSettingWarning
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
@@ -31,8 +35,18 @@ from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 
-KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings")
+KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings", "latency")
 """The fields of a run's key: a result line with the same values is the same run."""
+
+INLINE = "none"
+LATENCIES = (INLINE, MEASURED)
+"""When a run's plans take effect: ``none``, as the scene's settings say (within the cycle that makes them), or
+``measured``, after each plan's own CPU time (``plan_latency = "measured"``,
+:data:`~previewctl.control.params.PlanLatency`): what planning beside the loop costs, in a run that depends on the
+host's speed."""
+LATENCY_CONTROLLERS = ("multi", "reach", "horizon")
+"""The controllers whose plans a measured latency delays (the window planner's, replanned); the others run once,
+inline (the ``oracle`` makes one plan, followed at once)."""
 
 GENERATOR_VERSION = 2
 """Bumped when :mod:`previewctl.bench.scenes` draws differently: old results no longer match."""
@@ -50,6 +64,7 @@ class RunSpec:
         execution: execution mode (``ControllerParams.execution``).
         settings: :func:`settings_hash` of the scene settings and scene seed.
         scene_seed: the seed the scene was drawn with.
+        latency: one of :data:`LATENCIES`.
     """
 
     robot: str
@@ -59,6 +74,7 @@ class RunSpec:
     execution: str
     settings: str
     scene_seed: int = 0
+    latency: str = INLINE
 
     @property
     def key(self) -> tuple[Any, ...]:
@@ -66,9 +82,15 @@ class RunSpec:
         return tuple(getattr(self, name) for name in KEY_FIELDS)
 
 
+def run_latency(name: str, latency: str) -> str:
+    """The latency controller ``name`` runs with when ``latency`` is asked: itself for the controllers of
+    :data:`LATENCY_CONTROLLERS`, ``none`` for the others (a measured latency changes nothing in their runs)."""
+    return latency if name in LATENCY_CONTROLLERS else INLINE
+
+
 def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
-    """The key of a result line (see :data:`KEY_FIELDS`)."""
-    return tuple(record.get(name) for name in KEY_FIELDS)
+    """The key of a result line (see :data:`KEY_FIELDS`; a line written before runs had a latency is inline)."""
+    return tuple(record.get(name, INLINE if name == "latency" else None) for name in KEY_FIELDS)
 
 
 def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
@@ -89,14 +111,17 @@ def _scenario(document: str) -> Scenario:
     return scenario_from_dict(data, source=data["name"])
 
 
-def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult]:
-    """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller and execution)
-    and its log (exact check on the robot's mesh geometry). An ``oracle`` follows the scene's
+def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult, list[float]]:
+    """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller, execution and
+    latency), its log (exact check on the robot's mesh geometry) and the CPU time [s] of each plan its window planner
+    made (empty without one). An ``oracle`` follows the scene's
     :attr:`~BenchScene.oracle_plan` when it has one: the plan it would make (a test checks the runs are the same),
     made once per scene by the witness, so this run's CPU time leaves the planning out."""
     base = _scenario(json.dumps(scene.document, sort_keys=True))
     execution = cast(ExecutionMode, spec.execution)  # ControllerParams checks the value
     params = dataclasses.replace(base.controller.params, execution=execution)
+    if spec.latency == MEASURED:
+        params = dataclasses.replace(params, plan_latency=MEASURED)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
     with warnings.catch_warnings():  # every controller gets the profile's one table; its composition logs the rest
@@ -104,12 +129,33 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
         controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
-    return scenario, simulate(scenario, controller=controller, exact_evaluator=exact)
+    result = simulate(scenario, controller=controller, exact_evaluator=exact)
+    planner = window_planner(controller.law)
+    return scenario, result, [] if planner is None else planner.costs
+
+
+def window_planner(law: ControlLaw) -> WindowPlanner | None:
+    """The window planner of a law: ``horizon``'s and ``oracle``'s own, coherent ``reach``'s route's, ``multi``'s
+    on the route; ``None`` for a law without one."""
+    part = getattr(law, "planner", None) or getattr(law, "route", None) or getattr(getattr(law, "policy", None),
+                                                                                   "planner", None)
+    part = getattr(part, "planner", part)  # a PeakPlanner holds its window planner
+    return part if isinstance(part, WindowPlanner) else None
+
+
+def plan_costs(costs: list[float]) -> dict[str, Any]:
+    """A run's plan CPU times [s] in its result line: how many, median, p95 and max (nothing without plans)."""
+    if not costs:
+        return {}
+    ordered = sorted(costs)
+    p95 = ordered[min(len(ordered) - 1, math.ceil(0.95 * len(ordered)) - 1)]
+    return {"plans": len(costs), "plan_cpu_p50": statistics.median(costs), "plan_cpu_p95": p95,
+            "plan_cpu_max": ordered[-1]}
 
 
 def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
     """Simulate ``spec`` on ``scene``: the result line (the spec's fields, the metrics, the wall and CPU time
-    of the worker [s]; on a shared host the CPU time is the fairer cost).
+    of the worker [s]; on a shared host the CPU time is the fairer cost; and its plans' CPU times, :func:`plan_costs`).
 
     The ``oracle`` run the scene's witness made (:attr:`BenchScene.oracle_run`) is this run when the execution
     and seed are its own: its line is made from it (with its times) instead of simulating it again."""
@@ -119,6 +165,6 @@ def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
         metrics = {k: v for k, v in made.items() if k not in ("execution", "seed")}
         return {**dataclasses.asdict(spec), "scenario": scene.document["name"], **metrics}
     start, cpu = time.perf_counter(), time.process_time()
-    scenario, result = simulate_spec(spec, scene)
-    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result),
+    scenario, result, costs = simulate_spec(spec, scene)
+    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **plan_costs(costs),
             "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

@@ -24,7 +24,7 @@ from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_kee
 from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.robots import VALID_ROBOTS, bench_source, profile
-from previewctl.bench.runs import RunSpec, record_key, run, settings_hash
+from previewctl.bench.runs import INLINE, LATENCIES, RunSpec, record_key, run, run_latency, settings_hash
 from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
@@ -46,8 +46,8 @@ SCENES_NAME = "scenes.jsonl"
 
 @dataclass(frozen=True)
 class Sweep(Checked):
-    """What to run: robots x scenes x controller seeds x controllers x execution modes; every field is checked
-    when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
+    """What to run: robots x scenes x controller seeds x controllers x execution modes x latencies; every field is
+    checked when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
         robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
@@ -59,6 +59,8 @@ class Sweep(Checked):
             scene, as seed 0).
         scene_seed: the seed the scenes are drawn with.
         settings: what every scene shares (duration, dt, witness).
+        latencies: when the plans take effect, each of :data:`~previewctl.bench.runs.LATENCIES` (a controller
+            without a replanned window planner runs inline only, :func:`~previewctl.bench.runs.run_latency`).
     """
 
     robots: tuple[Text, ...] = ("planar4",)
@@ -68,20 +70,23 @@ class Sweep(Checked):
     seeds: tuple[Annotated[Integer, Field(ge=0)], ...] = (0,)
     scene_seed: Annotated[Integer, Field(ge=0)] = 0
     settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
+    latencies: tuple[Text, ...] = (INLINE,)
 
     def check(self) -> None:
         """Every name, and each robot's profile (each field's type and count is checked by its annotation first);
         a robot's source made canonical (:func:`~previewctl.bench.robots.bench_source`).
 
         Raises:
-            UnknownNameError: an unknown robot, controller or execution mode (the valid ones listed).
+            UnknownNameError: an unknown robot, controller, execution mode or latency (the valid ones listed).
             RobotLoadError: a missing URDF file or one that does not load as an arm.
-            ParameterError: no robot, no seed, or an arm no profile can be derived for.
+            ParameterError: no robot, no seed, no latency, or an arm no profile can be derived for.
         """
         if not self.robots:
             raise ParameterError(f"give at least one robot; valid: {', '.join(VALID_ROBOTS)}")
         if not self.seeds:
             raise ParameterError("give at least one controller seed, e.g. seeds=(0,)")
+        if not self.latencies:
+            raise ParameterError(f"give at least one latency; valid: {', '.join(LATENCIES)}")
         object.__setattr__(self, "robots", tuple(bench_source(robot) for robot in self.robots))
         for robot in self.robots:
             profile(robot)
@@ -91,23 +96,29 @@ class Sweep(Checked):
         for name in self.executions:
             if name not in control_params.EXECUTION_MODES:
                 raise UnknownNameError("execution mode", name, control_params.EXECUTION_MODES)
+        for name in self.latencies:
+            if name not in LATENCIES:
+                raise UnknownNameError("latency", name, LATENCIES)
 
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
 
         ``none`` runs under the pseudo-inverse only and ``qp`` under the QP only
         (:func:`~previewctl.control.params.controller_runs`); a controller that draws no random numbers runs for
-        seed 0 only (:func:`~previewctl.control.params.run_seed`)."""
+        seed 0 only (:func:`~previewctl.control.params.run_seed`), and one without a replanned planner inline only
+        (:func:`~previewctl.bench.runs.run_latency`)."""
         pairs = control_params.controller_runs(self.controllers or control_params.CONTROLLER_NAMES,
                                                self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
             for scene in range(self.scenes):
-                runs = dict.fromkeys((control_params.run_seed(name, seed), name, execution)
-                                     for seed in self.seeds for name, execution in pairs)  # each run once, in order
-                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed)
-                          for seed, name, execution in runs]
+                runs = dict.fromkeys((control_params.run_seed(name, seed), name, execution,
+                                      run_latency(name, latency))
+                                     for latency in self.latencies for seed in self.seeds
+                                     for name, execution in pairs)  # each run once, in order
+                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed, latency)
+                          for seed, name, execution, latency in runs]
         return specs
 
 
@@ -203,7 +214,7 @@ def keep_runs(out: Path, client: Any, failures: int, on_done: Callable[[], None]
     futures = []
     for r in todo:
         scene = BenchScene.from_record(scenes[(r["robot"], r["scene"], r["settings"])])
-        spec = RunSpec(**{name: r[name] for name in fields})
+        spec = RunSpec(**{name: r[name] for name in fields if name in r})  # older lines: the fields' defaults
         futures.append(client.submit(keep_run, spec, scene, str(out / RUNS_FOLDER / run_folder(r)), pure=False))
     from distributed import as_completed
 

@@ -14,6 +14,7 @@ from previewctl.bench.keep import FAILURES_KEPT
 from previewctl.bench.profiles import PROFILES
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
+from previewctl.bench.runs import LATENCIES, LATENCY_CONTROLLERS
 from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import (
@@ -58,6 +59,12 @@ def add_parser(commands: Commands) -> None:
     option("--seed", type=seed_list, default=(0,), metavar="SEEDS",
            help="controller seeds per scene, a comma list or ranges, e.g. 0-4 or 0,1,2 (default 0); the controllers "
            f"that draw no random numbers (all but {', '.join(SEEDED_CONTROLLERS)}) run once, as seed 0")
+    option("--latency", default="none", metavar="NAMES",
+           help=f"comma-separated, when plans take effect (default none): {', '.join(LATENCIES)}; measured: after "
+           "each plan's own CPU time, rounded up to control periods, for "
+           f"{', '.join(LATENCY_CONTROLLERS)} (the others run once, inline); the report shows these runs as their own "
+           "rows beside the inline ones, which a rerun into the same OUT keeps; measured runs depend on the host's "
+           "speed and are not bit-reproducible")
     option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
     option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
     option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")
@@ -97,7 +104,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             raise ParameterError("--workers sizes a local cluster; it cannot be used with --scheduler")
         sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controller),
                       executions=_names(args.execution), seeds=args.seed, scene_seed=args.scene_seed,
-                      settings=SceneSettings(duration=args.duration))
+                      settings=SceneSettings(duration=args.duration), latencies=_names(args.latency))
         start = time.perf_counter()
         bars: list[tqdm] = []
         try:

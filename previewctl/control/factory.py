@@ -61,6 +61,7 @@ from previewctl.control.laws import Gradient, Horizon, MultiPreview, Oracle, QPB
 from previewctl.control.nullspace import AmsipGradient
 from previewctl.control.params import (
     CONTROLLER_NAMES,
+    MEASURED,
     SETTING_GROUPS,
     ControllerParams,
     ControllerSpec,
@@ -187,7 +188,7 @@ def make_controller(
         UnknownNameError: an unknown controller name (the message lists the valid ones).
         ParameterError: ``source`` neither a scenario nor a name, a missing ``robot``/``path``,
             a bad ``frame``/``dt``/``seed``, settings the controller cannot honour (see :func:`compose`), or
-            background planning for a controller that cannot do it.
+            background planning for a controller that cannot do it or with ``plan_latency = "measured"``.
 
     Warns:
         IgnoredSettingWarning: a setting the controller does not read (see :func:`compose`).
@@ -208,6 +209,10 @@ def make_controller(
     evaluator = Evaluator(robot, scene, index, potential)
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
+    if planning == "background" and spec.params.plan_latency == MEASURED:
+        raise ParameterError("plan_latency = 'measured' stands in for planning beside the loop in an inline run; with "
+                             "planning='background' the plans arrive when the worker has made them: leave "
+                             "plan_latency out, or use planning='inline'")
     frame = positive_period(base.frame if frame is None else frame, "frame")
     beside = BackgroundPlanning(background or BackgroundOptions(), frame) if planning == "background" else None
     worker_rng = copy.deepcopy(rng)  # the worker's searches draw the streams inline ones would

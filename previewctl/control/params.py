@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, Any, Literal, get_args
+from typing import Annotated, Any, Final, Literal, get_args
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
@@ -46,6 +46,21 @@ ImaginaryArms = Literal["route", "peaks"]
 """Where coherent ``multi`` puts its imaginary arms: on the route planned as ``reach`` plans it (``route``: where the
 plan puts the arm at the preview times), or each on one tracked GA peak (``peaks``, :mod:`previewctl.control.peaks`);
 see :mod:`previewctl.control.imaginary`."""
+MEASURED: Final = "measured"
+"""``plan_latency = "measured"``: each plan arrives after its own measured compute time (see :data:`PlanLatency`)."""
+
+
+def _latency(value: float | str) -> float | str:
+    """A latency in seconds is not negative."""
+    if isinstance(value, float) and value < 0:
+        raise invalid("must be a time >= 0 [s] or 'measured', got {value}", value=repr(value))
+    return value
+
+
+PlanLatency = Annotated[Finite | Literal["measured"], AfterValidator(_latency)]
+"""How long a plan takes to arrive: a fixed time [s], or ``"measured"``: the plan's own CPU time
+(``time.process_time``, which a loaded host inflates less than wall time), rounded up to whole control periods; a
+reproducible stand-in for planning beside the loop in sweeps, though not bit-reproducible across hosts."""
 CONTROLLER_NAMES: tuple[str, ...] = get_args(ControllerName)
 EXECUTION_MODES: tuple[str, ...] = get_args(ExecutionMode)
 PREVIEW_MODES: tuple[str, ...] = get_args(PreviewMode)
@@ -169,7 +184,8 @@ class ControllerParams(Checked):
         plan_latency: ``horizon``, coherent ``reach`` and ``multi``: how long [s] a plan takes to arrive, as for a
             planner beside the control loop: a plan made from the state at ``t`` is followed from
             ``t + plan_latency`` (the first one at once); at most the replan period. 0 (the default): within the
-            cycle.
+            cycle. ``"measured"``: after the plan's own CPU time, rounded up to whole control periods
+            (:data:`PlanLatency`); the next plan is then made once it has arrived.
         execution: how the command is executed, one of :data:`EXECUTION_MODES` (``none`` and ``qp`` have their own,
             :data:`FIXED_EXECUTION`).
         task_weight: ``W``, the QP's weight of the hand term against the joint term
@@ -212,7 +228,7 @@ class ControllerParams(Checked):
     track_neighbours: Annotated[Integer, Field(ge=0)] | None = None
     replan_period: Positive | None = None
     plan_window: Positive | None = None
-    plan_latency: NonNegative = 0.0
+    plan_latency: PlanLatency = 0.0
     execution: ExecutionMode = "qp"
     task_weight: Positive = 1e4
     slack_weight: Positive = 1e6

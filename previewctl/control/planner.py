@@ -9,7 +9,8 @@ whole rest of the path: the non-causal ``oracle``), and replans every ``replan_p
 * on a spatial arm, by the sampled forward search (:func:`previewctl.search.roadmap.roadmap_over_time`), its samples
   0.05 s apart: checked at its samples only, and not complete ("none found" only means that its beam found none).
 
-A plan made at ``t`` is followed from ``t + latency`` (a planner beside the control loop; the first at once). The
+A plan made at ``t`` is followed from ``t + latency`` (a planner beside the control loop; the first at once), or with
+the ``"measured"`` latency from ``t`` plus its own CPU time rounded up to whole control periods. The
 plan's configuration at any time, :meth:`WindowPlanner.point`, is linear between samples, unwrapped along the motion
 (a continuous joint's angle stands for its (cos, sin) pair), so the difference to it is taken without wrapping: a
 planar elbow changes branch where the plan does, at the stretched wrist.
@@ -23,14 +24,15 @@ and can go on from to the window's end, at the latest preview time that has one 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
 from previewctl.control.base import ControlState
-from previewctl.control.params import ControllerParams
+from previewctl.control.params import MEASURED, ControllerParams, PlanLatency
 from previewctl.control.peaks import near
 from previewctl.errors import ConfigurationError
 from previewctl.index.evaluator import Evaluator
@@ -72,6 +74,8 @@ class PlanTiming(Checked):
         window: how far ahead [s] each plan looks; ``None``: over the whole rest of the path (one plan).
         latency: how long [s] a plan takes to arrive: a plan made from the state at ``t`` is followed from
             ``t + latency`` on, the previous one until then (the first plan at once). At most ``replan_period``.
+            ``"measured"``: the plan's own CPU time, rounded up to whole control periods (the next plan is made once
+            it has arrived, as one planner beside the loop would).
         lookahead: ``t_l`` [s], how far ahead on the plan a follower takes its target.
     """
 
@@ -79,12 +83,12 @@ class PlanTiming(Checked):
 
     replan_period: Positive = 0.5
     window: Positive | None = None
-    latency: NonNegative = 0.0
+    latency: PlanLatency = 0.0
     lookahead: NonNegative = 0.1
 
     def check(self) -> None:
         """The planner makes one plan at a time: ``latency <= replan_period``."""
-        if self.latency > self.replan_period:
+        if isinstance(self.latency, float) and self.latency > self.replan_period:
             raise ConfigurationError(f"a plan latency of {self.latency:g} s is longer than the replan period "
                                      f"{self.replan_period:g} s; the planner makes one plan at a time, so the latency "
                                      "must be at most the period")
@@ -112,12 +116,14 @@ class WindowPlanner:
             them when the path left is too short for them (a step must let a gene move by at least one grid cell).
         roadmap: the spatial arm's search (default :class:`~previewctl.search.roadmap.RoadmapOptions` with no
             window, :data:`HORIZON_ROADMAP` with one).
+        clock: the CPU clock [s] a plan's compute time is read from (a test's stand-in controls it).
 
     Attributes:
         motion, result: the plan being followed, and its DP result (``None`` for a plan with nothing left to
             track, or one given as a bare motion).
         planned: the DP result of the last plan made, which may not be followed yet (``None`` on a spatial arm).
         goal: ``(level, index)`` of the goal the last plan made heads for (``goals[level].q[index]``), or ``None``.
+        costs: the CPU time [s] of each plan made, in order.
     """
 
     def __init__(
@@ -129,8 +135,10 @@ class WindowPlanner:
         plan: ReachResult | ReachMotion | None = None,
         options: ReachOptions | None = None,
         roadmap: RoadmapOptions | None = None,
+        clock: Callable[[], float] = time.process_time,
     ) -> None:
-        self.robot, self.evaluator, self.timing = robot, evaluator, timing
+        self.robot, self.evaluator, self.timing, self.clock = robot, evaluator, timing, clock
+        self.costs: list[float] = []
         windowed = timing.window is not None
         self.options = options or (HORIZON_OPTIONS if windowed else ORACLE_OPTIONS)
         self.roadmap = roadmap or (HORIZON_ROADMAP if windowed else RoadmapOptions())
@@ -152,8 +160,15 @@ class WindowPlanner:
         """Make the plan from the state's configuration and time over the rest of its path (no window), or over the
         window ``[t, t + window]`` cut at the path's end; toward the best reached of ``goals`` when one is (see
         :func:`~previewctl.search.reachability.reach_over_time`)."""
+        start = self.clock()
+        self._next_plan = state.t + self.timing.replan_period
+        motion, result, goal = self._search(state, goals)
+        return self._made(state, motion, result, goal, self.clock() - start)
+
+    def _search(self, state: ControlState,
+                goals: Sequence[Goals]) -> tuple[ReachMotion, ReachResult | None, tuple[int, int] | None]:
+        """The plan from ``state``: its motion, DP result (``None`` on a spatial arm) and goal (:meth:`plan`)."""
         t, q = state.t, state.q
-        self._next_plan = t + self.timing.replan_period
         horizon = state.path.end_time - t
         if self.timing.window is not None:
             horizon = min(horizon, self.timing.window)
@@ -161,11 +176,11 @@ class WindowPlanner:
             hold = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
                                branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
                                min_S=float("nan"), total_S=0.0)
-            return self._made(t, hold, None)
+            return hold, None, None
         if self.robot.planar is None:  # a spatial arm: the sampled forward search
             found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t,
                                       goals=goals)
-            return self._made(t, found.motion, None, found.goal)
+            return found.motion, None, found.goal
         options = self.options
         if self.timing.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
@@ -177,15 +192,22 @@ class WindowPlanner:
             if fit < options.steps:
                 options = replace(options, steps=max(1, fit))
         result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
-        return self._made(t, result.motion, result, result.goal)
+        return result.motion, result, result.goal
 
-    def _made(self, t: float, motion: ReachMotion, result: ReachResult | None,
-              goal: tuple[int, int] | None = None) -> ReachMotion:
-        """A plan made at ``t`` [s]: followed from now on, or from ``t + latency`` once there is one to follow."""
+    def _made(self, state: ControlState, motion: ReachMotion, result: ReachResult | None,
+              goal: tuple[int, int] | None, cost: float) -> ReachMotion:
+        """A plan made at ``t`` [s] in ``cost`` [s] of CPU time: followed from now on, or from ``t`` + its latency
+        once there is one to follow."""
+        t = state.t
         self.arrive(t)
         self.planned, self.goal, self._join = result, goal, None
-        if self.timing.latency > 0 and self.motion is not None:
-            self._pending = (t + self.timing.latency, motion, result)
+        self.costs.append(cost)
+        measured = self.timing.latency == MEASURED
+        delay = math.ceil(cost / state.dt - 1e-9) * state.dt if measured else float(self.timing.latency)
+        if measured:  # one plan at a time: the next once this one has arrived
+            self._next_plan = max(self._next_plan, t + delay)
+        if delay > 0 and self.motion is not None:
+            self._pending = (t + delay, motion, result)
         else:
             self.motion, self.result, self._pending = motion, result, None
         return motion
