@@ -1,10 +1,12 @@
 """Per-link clearance of a batch of configurations against a scene (Coal through Pinocchio's geometry layer), and
 the arm's clearance from itself (:mod:`previewctl.scene.self_clearance`, reached through :class:`Clearance`).
 
-A batch may be screened first (:meth:`Clearance.screened`): each robot geometry is enclosed in a sphere carried by its
-joint and each obstacle in a sphere moved with it, so ``d >= |c_g - c_o| - r_g - r_o`` bounds every pair from below in
-numpy; Coal computes only the configurations with some pair bounded below the distance that matters, and the others
-keep their bounds. An obstacle without a finite cover (a half-space, a plane) is never screened out.
+A batch may be screened first (:meth:`Clearance.screened`): each obstacle is enclosed in a sphere ``(c_o, r_o)`` moved
+with it, and each robot geometry in a sphere ``(c_g, r_g)`` and a capsule ``[a_g, b_g] + ρ_g`` carried by its joint
+(:func:`~previewctl.robot.geometry.enclosing_capsule` of its cover), so every pair is bounded from below in numpy, by
+``|c_g - c_o| - r_g - r_o`` for all pairs, then, for the pairs that bound leaves, by the larger of it and
+``dist(c_o, [a_g, b_g]) - ρ_g - r_o``. Coal computes only the pairs still bounded below the distance that matters; the
+others keep their bounds. An obstacle without a finite cover (a half-space, a plane) is never screened out.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.errors import SceneError
+from previewctl.robot.geometry import enclosing_capsule
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static, planar_fields
 from previewctl.scene.self_clearance import BOUND_SLACK, SelfClearance, SelfWitnesses, cover_points
@@ -126,11 +129,13 @@ class Clearance:
         self.joints: tuple[int, ...] = tuple(sorted(set(pair_joints)))
         self._pair_geometry = np.array([p.first for p in self.geometry.collisionPairs], dtype=int)
         self._pair_slot = np.array([self.joints.index(j) for j in pair_joints], dtype=int)
-        robot_covers = [_sphere(g.geometry, g.placement) for g in robot.collision_model.geometryObjects]
-        self._geometry_centres = np.array([np.append(c, 1.0) for c, _ in robot_covers]).reshape(-1, 4)
-        self._obstacle_covers = [_sphere(o.shape.geometry(), pin.SE3.Identity()) for o in scene.obstacles]
-        self._pair_reach = (np.array([r for _, r in robot_covers])[self._pair_geometry]
-                            + np.array([r for _, r in self._obstacle_covers])[self.pair_obstacles] + BOUND_SLACK)
+        robot_covers = [_covers(g.geometry, g.placement) for g in robot.collision_model.geometryObjects]
+        self._geometry_centres = np.array([np.append(c[0], 1.0) for c in robot_covers]).reshape(-1, 4)
+        self._obstacle_covers = [_covers(o.shape.geometry(), pin.SE3.Identity())[:2] for o in scene.obstacles]
+        obstacle_radius = np.array([r for _, r in self._obstacle_covers])[self.pair_obstacles] + BOUND_SLACK
+        self._pair_reach = np.array([c[1] for c in robot_covers])[self._pair_geometry] + obstacle_radius
+        self._pair_ends = np.array([c[2] for c in robot_covers]).reshape(-1, 2, 3)[self._pair_geometry]
+        self._pair_capsule_reach = np.array([c[3] for c in robot_covers])[self._pair_geometry] + obstacle_radius
         self._obstacle_centres = self._centres_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
@@ -194,17 +199,26 @@ class Clearance:
             placements: ``(B, J, 4, 4)`` the world placements of :attr:`joints` at each configuration.
             within: the distance [m] below which distances are exact.
         """
-        centres = (placements[:, self._pair_slot] @ self._geometry_centres[self._pair_geometry, :, None])[..., :3, 0]
+        held = placements[:, self._pair_slot]  # (B, P, 4, 4)
+        centres = (held @ self._geometry_centres[self._pair_geometry, :, None])[..., :3, 0]
         gap = centres - self._obstacle_centres[self.pair_obstacles]
         distances = np.sqrt(np.einsum("bpk,bpk->bp", gap, gap)) - self._pair_reach
         rows, pairs = np.nonzero(distances < within)
-        model, own, geometry, data, placed = self.robot.model, self._own, self.geometry, self.data, -1
-        found = []
+        if rows.size:
+            frames = held[rows, pairs]
+            ends = self._pair_ends[pairs] @ frames[:, :3, :3].transpose(0, 2, 1) + frames[:, None, :3, 3]
+            capsule = _segment_distance(ends, self._obstacle_centres[self.pair_obstacles[pairs]])
+            distances[rows, pairs] = np.maximum(distances[rows, pairs], capsule - self._pair_capsule_reach[pairs])
+            keep = distances[rows, pairs] < within
+            rows, pairs = rows[keep], pairs[keep]
+        model, own, geometry, data, solids = self.robot.model, self._own, self.geometry, self.data, self._solid_of
+        found, placed = [], -1
         for b, k in zip(rows.tolist(), pairs.tolist(), strict=True):
             if b != placed:
                 pin.updateGeometryPlacements(model, own, geometry, data, Q[b])
                 placed = b
-            found.append(self._solid(k, pin.computeDistance(geometry, data, k).min_distance))
+            distance = pin.computeDistance(geometry, data, k).min_distance
+            found.append(self._solid(k, distance) if k in solids else distance)
         distances[rows, pairs] = found
         return distances
 
@@ -233,13 +247,27 @@ class Clearance:
         return out
 
 
-def _sphere(shape: coal.CollisionGeometry, placement: pin.SE3) -> tuple[Array, float]:
-    """Centre ``(3,)`` [m] (in the frame ``placement`` is given in) and radius [m] of a sphere that encloses a Coal
-    shape placed by ``placement``; radius ``inf`` for a shape without a finite cover (a half-space, a plane)."""
-    if isinstance(shape, (coal.Halfspace, coal.Plane)):
-        return np.zeros(3), np.inf
-    points, rho = cover_points(shape)
-    points = points.reshape(-1, 3) @ placement.rotation.T + placement.translation
-    centre = (points.min(axis=0) + points.max(axis=0)) / 2
-    radius = float(np.linalg.norm(points - centre, axis=1).max()) + rho
-    return (centre, radius) if np.isfinite(radius) and np.isfinite(centre).all() else (np.zeros(3), np.inf)
+def _covers(shape: coal.CollisionGeometry, placement: pin.SE3) -> tuple[Array, float, Array, float]:
+    """A sphere's centre ``(3,)`` [m] and radius [m], and a capsule's axis ends ``(2, 3)`` [m] and radius [m], each
+    enclosing a Coal shape placed by ``placement`` (in the frame ``placement`` is given in); radii ``inf`` for a shape
+    without a finite cover (a half-space, a plane)."""
+    if not isinstance(shape, (coal.Halfspace, coal.Plane)):
+        points, rho = cover_points(shape)
+        points = points.reshape(-1, 3) @ placement.rotation.T + placement.translation
+        centre = (points.min(axis=0) + points.max(axis=0)) / 2
+        radius = float(np.linalg.norm(points - centre, axis=1).max()) + rho
+        if np.isfinite(radius) and np.isfinite(centre).all():
+            capsule, half_length, axis = enclosing_capsule(points)
+            half = np.array([0.0, 0.0, half_length])
+            return centre, radius, np.array([axis.act(-half), axis.act(half)]), capsule + rho
+    return np.zeros(3), np.inf, np.zeros((2, 3)), np.inf
+
+
+def _segment_distance(ends: Array, points: Array) -> Array:
+    """Distances ``(C,)`` [m] from points ``(C, 3)`` to segments ``ends`` ``(C, 2, 3)``."""
+    axis = ends[:, 1] - ends[:, 0]
+    offset = points - ends[:, 0]
+    length2 = np.einsum("ck,ck->c", axis, axis)
+    along = np.clip(np.einsum("ck,ck->c", offset, axis) / np.maximum(length2, 1e-300), 0.0, 1.0)
+    gap = offset - along[:, None] * axis
+    return np.sqrt(np.einsum("ck,ck->c", gap, gap))
