@@ -15,7 +15,7 @@ said so, when absent). ``--save FILE`` keeps the recorded calls and the plans th
 (a speed-up that must not change the plans shows 0).
 
 Run: ``PYTHONPATH=. python benchmarks/bench_plan.py [--quick] [--save calls.pkl | --load calls.pkl]``.
-``--quick``: the Panda crossing scene only, ``horizon`` only, its first 2 s.
+``--quick``: the Panda crossing scene only, ``horizon`` only, its first second (a smoke run).
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def record(args: argparse.Namespace) -> tuple[list[Call], dict[str, World]]:
     for name, source in _scenes(args):
         scenario = _scenario(source)
         if args.quick:
-            scenario = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=2.0))
+            scenario = dataclasses.replace(scenario, timing=dataclasses.replace(scenario.timing, duration=1.0))
         for controller in controllers:
             def recorder(robot: Any, evaluator: Evaluator, path: HandPath, q: np.ndarray, duration: float,
                          options: RoadmapOptions | None = None, *, t_start: float = 0.0,
@@ -147,7 +147,7 @@ def replay(calls: list[Call], worlds: dict[str, World], repeat: int) -> dict[str
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="Panda crossing, horizon, 2 s: a smoke run")
+    parser.add_argument("--quick", action="store_true", help="Panda crossing, horizon, 1 s: a smoke run")
     parser.add_argument("--controller", default=",".join(CONTROLLERS), help="controllers whose plans to record")
     parser.add_argument("--bench-scenes", type=int, default=3, help="Panda bench scenes to add (0: none)")
     parser.add_argument("--bench-folder", type=Path, default=Path("/work/out/bench-spatial"))
