@@ -19,7 +19,7 @@ what it was before self pairs existed.
 
 Self distances come from bounding-sphere tests first (:mod:`previewctl.scene.self_clearance`): exact below
 ``d_s``, a lower bound (at least ``d_s``) above it. Obstacle distances are exact unless a call asks for fewer
-(``exact_below``, :meth:`Evaluator.__call__`): then they are screened the same way (:meth:`Clearance.screened
+(the ``exact_below`` of a call to :class:`Evaluator`): then they are screened the same way (:meth:`Clearance.screened
 <previewctl.scene.clearance.Clearance.screened>`), exact below ``max(exact_below, d_0)`` and a lower bound above it,
 which leaves ``S`` the same bit for bit (the potential is 0 beyond ``d_0``) at a fraction of the Coal calls.
 """
