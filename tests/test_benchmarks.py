@@ -36,3 +36,14 @@ def test_bench_preview_bad_settings_are_one_line(tmp_path: Path) -> None:
         done = _bench_preview(tmp_path, "--set", setting)
         assert done.returncode == 1 and done.stdout == ""
         assert done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
+
+
+def test_bench_plan_quick_replays_the_plans_it_recorded() -> None:
+    """``bench_plan.py --quick``: the Panda plans of one second of ``horizon`` replayed the same, one row."""
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_plan.py"), "--quick"], capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "plans replayed, 0 differ from the recorded ones" in done.stdout
+    row = next(line.split() for line in done.stdout.splitlines() if line.startswith("panda"))
+    plans, p50, p95, top, period = int(row[1]), *map(float, row[2:6])
+    assert plans >= 2 and 0 < p50 <= p95 <= top and period == 0.5

@@ -437,6 +437,33 @@ def test_batch_equals_single_panda_and_evaluator_reuse(panda: Robot) -> None:
     assert not np.allclose(evaluator(Q, 0.0).link_distances, evaluator(Q, 2.0).link_distances)
 
 
+@pytest.mark.parametrize("robot_name", ["panda", "panda_mesh"])
+def test_screened_distances_keep_s_and_bound_the_far_pairs(robot_name: str, request: pytest.FixtureRequest) -> None:
+    """``exact_below``: S bit for bit, every distance below the screen exact, the others lower bounds at least it; a
+    half-space is never screened out."""
+    robot: Robot = request.getfixturevalue(robot_name)
+    rng = np.random.default_rng(7)
+    Q = robot.random_configurations(rng, 40)
+    obstacles = [Obstacle(f"ball{i}", previewctl.Sphere(0.06), Static(centre))
+                 for i, centre in enumerate(random_spheres_near_arm(robot, rng, Q[:3]))]
+    floor = Obstacle("floor", previewctl.Halfspace((0.0, 0.0, 1.0), -0.3), Static(np.zeros(3)))
+    evaluator = Evaluator(robot, Scene((*obstacles, floor)))
+    exact = evaluator(Q, 0.0)
+    for below in (0.0, 0.2):
+        screened = evaluator(Q, 0.0, exact_below=below)
+        within = max(below, evaluator.potential.influence_distance)
+        np.testing.assert_array_equal(screened.S, exact.S)
+        near = exact.link_distances < within
+        assert near.any() and (~near).any()
+        np.testing.assert_array_equal(screened.link_distances[near], exact.link_distances[near])
+        far = screened.link_distances[~near]
+        assert np.all(far >= within) and np.all(far <= exact.link_distances[~near] + 1e-12)
+        assert np.any(far < exact.link_distances[~near])  # bounds, not the exact distances
+    # the half-space alone: every pair computed
+    alone = Evaluator(robot, Scene((floor,)))
+    np.testing.assert_array_equal(alone(Q, exact_below=0.0).link_distances, alone(Q).link_distances)
+
+
 def test_evaluator_is_reproducible(panda: Robot) -> None:
     """The same batch through the same Evaluator, again and in reverse order: identical numbers."""
     Q = panda.random_configurations(np.random.default_rng(4), 12)

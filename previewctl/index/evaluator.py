@@ -18,11 +18,15 @@ self pairs (planar4: its shipped SRDF disables them all) has no self factor at a
 what it was before self pairs existed.
 
 Self distances come from bounding-sphere tests first (:mod:`previewctl.scene.self_clearance`): exact below
-``d_s``, a lower bound (at least ``d_s``) above it.
+``d_s``, a lower bound (at least ``d_s``) above it. Obstacle distances are exact unless a call asks for fewer
+(the ``exact_below`` of a call to :class:`Evaluator`): then they are screened the same way (:meth:`Clearance.screened
+<previewctl.scene.clearance.Clearance.screened>`), exact below ``max(exact_below, d_0)`` and a lower bound above it,
+which leaves ``S`` the same bit for bit (the potential is 0 beyond ``d_0``) at a fraction of the Coal calls.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Literal
 
@@ -106,8 +110,11 @@ class Evaluator:
         self.data = robot.model.createData()
         self.clearance = Clearance(robot, self.scene)
         self._self = self.clearance.self_clearance
-        # the reader also reads the placements of the joints that carry self geometry, for the self pairs' bounds
-        self._kinematics = kinematics_reader(robot, self.data, self._self.joints)
+        # the reader also reads the placements of the joints that carry self or guarded geometry, for their bounds
+        joints = sorted(set(self._self.joints) | set(self.clearance.joints))
+        self._kinematics = kinematics_reader(robot, self.data, joints)
+        self._self_slots = np.array([joints.index(j) for j in self._self.joints], dtype=int)
+        self._guarded_slots = np.array([joints.index(j) for j in self.clearance.joints], dtype=int)
         self._planar_arm = (
             PlanarArm(robot.planar, robot.structural_ranks, self.index) if robot.planar is not None else None
         )
@@ -141,8 +148,15 @@ class Evaluator:
             )
         return possible and self.method != "general"
 
-    def __call__(self, q: object, t: float = 0.0) -> Evaluation:
+    def __call__(self, q: object, t: float = 0.0, *, exact_below: float = np.inf) -> Evaluation:
         """AMSIP of a batch ``(B, nq)`` (or one ``(nq,)``, returned with ``B = 1``) at time ``t`` [s].
+
+        Args:
+            q: the configurations.
+            t: the scene's time [s].
+            exact_below: the obstacle distances [m] must be exact below this (and below the potential's influence
+                distance, so ``S`` never changes); above it they may be lower bounds (module docstring). Default:
+                exact everywhere.
 
         Raises:
             ConfigurationError: a bad ``q``.
@@ -155,23 +169,29 @@ class Evaluator:
             self.uses_planar_path(t)  # raises the explanatory error
         if kernels is not None and self._planar_arm is not None:
             return self._planar(Q, self._planar_arm, kernels)
-        return self._general(Q, t)
+        return self._general(Q, t, max(float(exact_below), self.potential.influence_distance))
 
-    def _general(self, Q: Array, t: float) -> Evaluation:
-        self.clearance.set_time(t)
+    def _general(self, Q: Array, t: float, exact_below: float) -> Evaluation:
+        clearance = self.clearance
+        clearance.set_time(t)
         rows: list[list[float]] = []
 
         def fill(data: pin.Data) -> None:
-            rows.append(self.clearance.pair_distances(data))
+            rows.append(clearance.pair_distances(data))
 
-        measure = fill if len(self.clearance.pair_links) else None
+        screen = not math.isinf(exact_below)
+        measure = fill if len(clearance.pair_links) and not screen else None
         kin = kinematics(self.robot, Q, after_each=measure, reader=self._kinematics)
-        pairs = np.array(rows).reshape(Q.shape[0], len(self.clearance.pair_links))
-        distances = self.clearance.per_link(pairs)
+        if screen and len(clearance.pair_links):
+            pairs = clearance.screened(Q, kin.joint_placements[:, self._guarded_slots], exact_below)
+        else:
+            pairs = np.array(rows).reshape(Q.shape[0], len(clearance.pair_links))
+        distances = clearance.per_link(pairs)
         amsi = amsi_from_kinematics(self.robot, kin, self.index)
         if not len(self._self):
             return self._finish(amsi, distances, kin.tip_position)
-        nearest = self._self.nearest(Q, kin.joint_placements, self.potential.self_influence_distance)
+        nearest = self._self.nearest(Q, kin.joint_placements[:, self._self_slots],
+                                    self.potential.self_influence_distance)
         return self._finish(amsi, distances, kin.tip_position, nearest)
 
     def _planar(

@@ -1,5 +1,13 @@
 """Per-link clearance of a batch of configurations against a scene (Coal through Pinocchio's geometry layer), and
-the arm's clearance from itself (:mod:`previewctl.scene.self_clearance`, reached through :class:`Clearance`)."""
+the arm's clearance from itself (:mod:`previewctl.scene.self_clearance`, reached through :class:`Clearance`).
+
+A batch may be screened first (:meth:`Clearance.screened`): each obstacle is enclosed in a sphere ``(c_o, r_o)`` moved
+with it, and each robot geometry in a sphere ``(c_g, r_g)`` and a capsule ``[a_g, b_g] + ρ_g`` carried by its joint
+(:func:`~previewctl.robot.geometry.enclosing_capsule` of its cover), so every pair is bounded from below in numpy, by
+``|c_g - c_o| - r_g - r_o`` for all pairs, then, for the pairs that bound leaves, by the larger of it and
+``dist(c_o, [a_g, b_g]) - ρ_g - r_o``. Coal computes only the pairs still bounded below the distance that matters; the
+others keep their bounds. An obstacle without a finite cover (a half-space, a plane) is never screened out.
+"""
 
 from __future__ import annotations
 
@@ -11,9 +19,10 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.errors import SceneError
+from previewctl.robot.geometry import enclosing_capsule
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static, planar_fields
-from previewctl.scene.self_clearance import SelfClearance, SelfWitnesses
+from previewctl.scene.self_clearance import BOUND_SLACK, SelfClearance, SelfWitnesses, cover_points
 from previewctl.scene.shapes import Scene
 from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array, IntArray
@@ -74,6 +83,7 @@ class Clearance:
         pair_links: ``(P,)`` guarded-link index of each (robot geometry, obstacle) pair.
         pair_obstacles: ``(P,)`` obstacle index of each pair.
         pair_joints: ``(P,)`` Pinocchio joint that carries the robot geometry of each pair.
+        joints: the joints that carry guarded geometry, in the order of the placements :meth:`screened` reads.
         self_clearance: the distances between the robot's own links (``robot.self_pairs``).
     """
 
@@ -116,6 +126,18 @@ class Clearance:
         # pairs grouped by link, for one minimum.reduceat per batch
         self._by_link = np.argsort(self.pair_links, kind="stable")
         self._links_present, self._link_starts = np.unique(self.pair_links[self._by_link], return_index=True)
+        self.joints: tuple[int, ...] = tuple(sorted(set(pair_joints)))
+        self._pair_geometry = np.array([p.first for p in self.geometry.collisionPairs], dtype=int)
+        self._pair_slot = np.array([self.joints.index(j) for j in pair_joints], dtype=int)
+        robot_covers = [_covers(g.geometry, g.placement) for g in robot.collision_model.geometryObjects]
+        self._geometry_centres = np.array([np.append(c[0], 1.0) for c in robot_covers]).reshape(-1, 4)
+        self._obstacle_covers = [_covers(o.shape.geometry(), pin.SE3.Identity())[:2] for o in scene.obstacles]
+        obstacle_radius = np.array([r for _, r in self._obstacle_covers])[self.pair_obstacles] + BOUND_SLACK
+        self._pair_reach = np.array([c[1] for c in robot_covers])[self._pair_geometry] + obstacle_radius
+        self._pair_ends = np.array([c[2] for c in robot_covers]).reshape(-1, 2, 3)[self._pair_geometry]
+        self._pair_capsule_reach = np.array([c[3] for c in robot_covers])[self._pair_geometry] + obstacle_radius
+        self._obstacle_centres = self._centres_at(0.0)
+        self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
         for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
             request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
@@ -123,6 +145,7 @@ class Clearance:
                 warnings.simplefilter("ignore", DeprecationWarning)
                 request.enable_cached_gjk_guess = False
         self._results = list(self.data.distanceResults)  # element references: no lookup per read
+        self._solid_of = {pair: (solid, g, o) for pair, solid, g, o in self._solid_pairs}
         self._time = 0.0
         self.self_clearance = SelfClearance(robot)
 
@@ -135,6 +158,12 @@ class Clearance:
         for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
             if not isinstance(obstacle.motion, Static):
                 self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
+        self._obstacle_centres = self._centres_at(t)
+
+    def _centres_at(self, t: float) -> Array:
+        """``(O, 3)`` the obstacles' cover centres [m] in the world at time ``t`` [s]."""
+        return np.array([o.placement(t).act(centre) for o, (centre, _) in
+                         zip(self.scene.obstacles, self._obstacle_covers, strict=True)]).reshape(-1, 3)
 
     def pair_distances(self, data: pin.Data) -> list[float]:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
@@ -146,12 +175,51 @@ class Clearance:
         pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
         pin.computeDistances(self.geometry, self.data)
         distances = [result.min_distance for result in self._results]
-        placements, objects = self.data.oMg, self.geometry.geometryObjects
-        for pair, solid, g, o in self._solid_pairs:
-            if distances[pair] > 0.0:
-                distances[pair] = solid.solid_distance(distances[pair], placements[g],
-                                                       self._results[pair].getNearestPoint2(),
-                                                       objects[o].geometry, placements[o])
+        for pair, _, _, _ in self._solid_pairs:
+            distances[pair] = self._solid(pair, distances[pair])
+        return distances
+
+    def _solid(self, pair: int, distance: float) -> float:
+        """The distance [m] of ``pair`` with its mesh counted as solid (:mod:`previewctl.scene.solid`), from its
+        Coal distance once computed for the geometry placements in :attr:`data` (unchanged for another pair)."""
+        solid = self._solid_of.get(pair)
+        if solid is None or distance <= 0.0:
+            return distance
+        mesh, g, o = solid
+        placements = self.data.oMg
+        return mesh.solid_distance(distance, placements[g], self._results[pair].getNearestPoint2(),
+                                   self.geometry.geometryObjects[o].geometry, placements[o])
+
+    def screened(self, Q: Array, placements: Array, within: float) -> Array:
+        """Distances ``(B, P)`` [m] per pair at the scene's time: exact (as :meth:`pair_distances`) for the pairs
+        bounded below ``within`` [m], else the lower bounds of the module docstring (each at least ``within``).
+
+        Args:
+            Q: ``(B, nq)`` validated configurations.
+            placements: ``(B, J, 4, 4)`` the world placements of :attr:`joints` at each configuration.
+            within: the distance [m] below which distances are exact.
+        """
+        held = placements[:, self._pair_slot]  # (B, P, 4, 4)
+        centres = (held @ self._geometry_centres[self._pair_geometry, :, None])[..., :3, 0]
+        gap = centres - self._obstacle_centres[self.pair_obstacles]
+        distances = np.sqrt(np.einsum("bpk,bpk->bp", gap, gap)) - self._pair_reach
+        rows, pairs = np.nonzero(distances < within)
+        if rows.size:
+            frames = held[rows, pairs]
+            ends = self._pair_ends[pairs] @ frames[:, :3, :3].transpose(0, 2, 1) + frames[:, None, :3, 3]
+            capsule = _segment_distance(ends, self._obstacle_centres[self.pair_obstacles[pairs]])
+            distances[rows, pairs] = np.maximum(distances[rows, pairs], capsule - self._pair_capsule_reach[pairs])
+            keep = distances[rows, pairs] < within
+            rows, pairs = rows[keep], pairs[keep]
+        model, own, geometry, data, solids = self.robot.model, self._own, self.geometry, self.data, self._solid_of
+        found, placed = [], -1
+        for b, k in zip(rows.tolist(), pairs.tolist(), strict=True):
+            if b != placed:
+                pin.updateGeometryPlacements(model, own, geometry, data, Q[b])
+                placed = b
+            distance = pin.computeDistance(geometry, data, k).min_distance
+            found.append(self._solid(k, distance) if k in solids else distance)
+        distances[rows, pairs] = found
         return distances
 
     def witnesses(self, data: pin.Data, within: float = np.inf) -> tuple[IntArray, Witnesses]:
@@ -177,3 +245,29 @@ class Clearance:
             grouped = pair_distances[:, self._by_link]
             out[:, self._links_present] = np.minimum.reduceat(grouped, self._link_starts, axis=1)
         return out
+
+
+def _covers(shape: coal.CollisionGeometry, placement: pin.SE3) -> tuple[Array, float, Array, float]:
+    """A sphere's centre ``(3,)`` [m] and radius [m], and a capsule's axis ends ``(2, 3)`` [m] and radius [m], each
+    enclosing a Coal shape placed by ``placement`` (in the frame ``placement`` is given in); radii ``inf`` for a shape
+    without a finite cover (a half-space, a plane)."""
+    if not isinstance(shape, (coal.Halfspace, coal.Plane)):
+        points, rho = cover_points(shape)
+        points = points.reshape(-1, 3) @ placement.rotation.T + placement.translation
+        centre = (points.min(axis=0) + points.max(axis=0)) / 2
+        radius = float(np.linalg.norm(points - centre, axis=1).max()) + rho
+        if np.isfinite(radius) and np.isfinite(centre).all():
+            capsule, half_length, axis = enclosing_capsule(points)
+            half = np.array([0.0, 0.0, half_length])
+            return centre, radius, np.array([axis.act(-half), axis.act(half)]), capsule + rho
+    return np.zeros(3), np.inf, np.zeros((2, 3)), np.inf
+
+
+def _segment_distance(ends: Array, points: Array) -> Array:
+    """Distances ``(C,)`` [m] from points ``(C, 3)`` to segments ``ends`` ``(C, 2, 3)``."""
+    axis = ends[:, 1] - ends[:, 0]
+    offset = points - ends[:, 0]
+    length2 = np.einsum("ck,ck->c", axis, axis)
+    along = np.clip(np.einsum("ck,ck->c", offset, axis) / np.maximum(length2, 1e-300), 0.0, 1.0)
+    gap = offset - along[:, None] * axis
+    return np.sqrt(np.einsum("ck,ck->c", gap, gap))

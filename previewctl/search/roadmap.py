@@ -15,7 +15,8 @@ time instead, reading the whole future as the planar DP does (non-causal, offlin
   (cos, sin) pair.
 * **Feasible moves.** Every sample is reachable (the hand within the map's tolerance of the path), within
   the joint limits (the map clips), at least ``margin`` [m] from every obstacle at its time (exact
-  distances, Coal through Pinocchio), and consecutive samples differ by at most ``v_j Δt / (substeps + 1)``
+  distances, Coal through Pinocchio, asked only where a bounding-sphere test cannot rule the obstacle out), and
+  consecutive samples differ by at most ``v_j Δt / (substeps + 1)``
   per joint (the speed limits).
 * **The beam.** A successor's value is the bottleneck ``min S`` over every sample of its motion from ``q0``
   (AMSIP, eq. 18). Of every layer's feasible successors, half the ``beam`` are the best by value, skipping any
@@ -243,7 +244,7 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
         check = rows[reachable & within]
         ok = np.zeros(len(parent), dtype=bool)
         if check.size:
-            found = evaluator(Q[reachable & within], t)
+            found = evaluator(Q[reachable & within], t, exact_below=opts.margin)
             evaluations += check.size
             clear = found.min_distance > opts.margin
             ok[check[clear]] = True
