@@ -9,8 +9,9 @@ Printed per robot: the plans' p50, p95 and max CPU time [s] and the ratio of eac
 baseline of the same run: a plan fits when the ratio is below 1).
 
 Scenes: the shipped ``panda_crossing`` and ``xarm7_crossing`` scenarios and the first ``--bench-scenes`` Panda
-scenes of a bench folder's ``scenes.jsonl`` (``--bench-folder``, default ``/work/out/bench-spatial``; skipped, and
-said so, when absent). ``--save FILE`` keeps the recorded calls and the plans they made (a pickle of plain fields);
+scenes of a bench folder's ``scenes.jsonl`` (``--bench-folder``, e.g. the ``--out`` of ``previewctl bench --robot
+panda``; without it, or when it holds none, only the shipped scenarios run, and it is said so). ``--save FILE``
+keeps the recorded calls and the plans they made (a pickle of plain fields);
 ``--load FILE`` replays them without running the scenes again and counts the plans that come out different
 (a speed-up that must not change the plans shows 0).
 
@@ -65,9 +66,9 @@ def _scenes(args: argparse.Namespace) -> Iterator[tuple[str, dict[str, Any] | Pa
     """``(name, source)``: a scenario file or a bench scene's document."""
     for name in SCENARIOS[:1] if args.quick else SCENARIOS:
         yield name, shipped_scenarios_dir() / f"{name}.toml"
-    records = args.bench_folder / "scenes.jsonl"
-    if args.quick or not args.bench_scenes:
+    if args.quick or not args.bench_scenes or args.bench_folder is None:
         return
+    records = args.bench_folder / "scenes.jsonl"
     if not records.is_file():
         print(f"(no {records}: bench scenes skipped)")
         return
@@ -150,7 +151,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="Panda crossing, horizon, 1 s: a smoke run")
     parser.add_argument("--controller", default=",".join(CONTROLLERS), help="controllers whose plans to record")
     parser.add_argument("--bench-scenes", type=int, default=3, help="Panda bench scenes to add (0: none)")
-    parser.add_argument("--bench-folder", type=Path, default=Path("/work/out/bench-spatial"))
+    parser.add_argument("--bench-folder", type=Path, metavar="DIR",
+                        help="a previewctl bench output folder whose Panda scenes to add (default: none)")
     parser.add_argument("--repeat", type=int, default=1, help="time each plan this many times, keep the least")
     parser.add_argument("--save", type=Path, help="keep the recorded calls in this file")
     parser.add_argument("--load", type=Path, help="replay the calls kept in this file instead of running scenes")
