@@ -425,6 +425,9 @@ def test_report_says_when_at_which_commits_and_on_which_scenes_and_seeds_it_was_
     assert "measured between 2026-12-01T10:00:00Z and 2026-12-03T10:00:00Z, at commit `abc1234` (3 runs), " \
            "`unknown` (1 runs) (`unknown`: recorded before runs carried their commit). Load average of the host as " \
            "runs finished: 0.5 to 2.5" in text
+    assert "from 4 runs measured" in text
+    again = write_report([*records, dict(records[0])], [], tmp_path)[0].read_text()  # a run appended twice
+    assert "from 4 runs measured" in again and "| multi | qp | 3 |" in again
     reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {}` |"
     assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0) in text
     assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4) in text

@@ -13,7 +13,7 @@ from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
 from previewctl.bench.provenance import UNKNOWN, now
-from previewctl.bench.runs import INLINE
+from previewctl.bench.runs import INLINE, record_key
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
@@ -196,6 +196,8 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     """Write the report (``out/report_name``) and its figure (``out/figure_name``) from the result and scene
     records: provenance (dates, commits, scenes and seeds), success rates, preview against ``qp``, and the kept
     runs of ``out/runs/`` when ``kept`` (a report published elsewhere, e.g. in the docs, leaves them out)."""
+    records = list({record_key(r): r for r in reversed(records)}.values())[::-1]  # a run twice (two sweeps
+    # appending to one folder at once) counts once: its first line
     groups = _groups(records)
     lines = [f"# previewctl bench: {', '.join(groups)}", "", *_provenance(records),
              f"{len(records)} runs. Success = no collision of a guarded link with an obstacle, no collision of the "
