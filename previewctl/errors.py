@@ -3,7 +3,9 @@ whose message names the bad value and, where there is a finite set, the valid ch
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import contextlib
+import warnings
+from collections.abc import Iterable, Iterator
 
 
 class PreviewctlError(Exception):
@@ -83,3 +85,13 @@ class PlanningWorkerError(PreviewctlError, RuntimeError):
 class IgnoredSettingWarning(UserWarning):
     """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
     controllers); the run goes on without it, and its log records it."""
+
+
+@contextlib.contextmanager
+def shared_settings() -> Iterator[None]:
+    """Make controllers from a table shared by several of them (a scene's ``[controller]`` table, which the paper
+    experiment and the bench give every controller) without an :class:`IgnoredSettingWarning` per controller: what
+    each ignores is still recorded in its composition and its run's log."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IgnoredSettingWarning)
+        yield

@@ -15,7 +15,6 @@ import json
 import math
 import statistics
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -28,7 +27,7 @@ from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
 from previewctl.control.params import MEASURED, ControllerSpec, ExecutionMode
 from previewctl.control.planner import WindowPlanner
-from previewctl.errors import IgnoredSettingWarning
+from previewctl.errors import shared_settings
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.log import RunResult
@@ -124,8 +123,7 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
         params = dataclasses.replace(params, plan_latency=MEASURED)
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
     exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
-    with warnings.catch_warnings():  # every controller gets the profile's one table; its composition logs the rest
-        warnings.simplefilter("ignore", IgnoredSettingWarning)
+    with shared_settings():  # every controller gets the profile's one table
         controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,7 +32,7 @@ from previewctl.bench.metrics import run_metrics
 from previewctl.bench.settings import SceneSettings
 from previewctl.control.factory import make_controller
 from previewctl.control.laws import Oracle
-from previewctl.errors import IgnoredSettingWarning, UnreachableTargetError
+from previewctl.errors import UnreachableTargetError, shared_settings
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.explore import explore
 from previewctl.search.maps import redundancy_map
@@ -112,8 +111,7 @@ def _followed(scenario: Scenario, settings: SceneSettings, found: str, plan: Rea
     scenario's execution and seed) must end collision-free with the hand within ``settings.witness_tolerance`` [m].
     ``planned``: the wall and CPU time [s] ``plan`` took, counted in the run's."""
     start, cpu = time.perf_counter() - planned[0], time.process_time() - planned[1]
-    with warnings.catch_warnings():  # the scene's table is every controller's; the oracle reads part of it
-        warnings.simplefilter("ignore", IgnoredSettingWarning)
+    with shared_settings():  # the scene's table is every controller's; the oracle reads part of it
         oracle = make_controller(scenario, name="oracle")
     if plan is not None and isinstance(oracle.law, Oracle):
         oracle.law.planner.motion = plan

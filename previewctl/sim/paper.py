@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -45,7 +44,7 @@ from previewctl.control.params import (
     ControllerSpec,
     controller_runs,
 )
-from previewctl.errors import IgnoredSettingWarning, PreviewctlError
+from previewctl.errors import PreviewctlError, shared_settings
 from previewctl.files import atomic_folder, atomic_write_bytes, check_output_folder
 from previewctl.sim.log import RunResult, save_run
 from previewctl.sim.loop import simulate
@@ -154,8 +153,7 @@ def run_one(
     """Simulate one run, save it to ``out_dir/<scene>/<label>/`` and return its summary (``after_run`` gets the
     run's temporary folder, which becomes ``out_dir/<scene>/<label>/`` once it returns)."""
     scenario = with_controller(canonical_scenario(run.scene), run.controller, run.execution)
-    with warnings.catch_warnings():  # every controller gets the scene's one table; the run's log records the rest
-        warnings.simplefilter("ignore", IgnoredSettingWarning)
+    with shared_settings():
         result = simulate(scenario, run.controller, seed=seed, tolerance=tolerance)
     with atomic_folder(out_dir / run.scene / run.label) as folder:  # each run's folder is replaced whole
         save_run(result, folder)
