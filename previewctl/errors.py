@@ -88,6 +88,11 @@ class PlanningWorkerError(PreviewctlError, RuntimeError):
     it (the ``qp`` fallback) and reports this in ``Controller.last_info.worker_error``."""
 
 
+class RosError(PreviewctlError, RuntimeError):
+    """The ROS 2 node cannot run as configured: its environment set after ROS started, a parameter it cannot use,
+    a joint missing from ``/joint_states`` (:mod:`previewctl.ros`)."""
+
+
 class IgnoredSettingWarning(UserWarning):
     """A setting was given that the chosen controller does not read (e.g. by a scenario file shared between
     controllers); the run goes on without it, and its log records it."""

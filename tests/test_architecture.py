@@ -5,7 +5,7 @@ such as ``path``) sits in one layer, and a module may import from its own layer 
 it, never from a later one (that would be reaching back up the flow)::
 
     shared ground (errors, extras, types, files, validation) -> path -> robot, kinematics -> scene -> sensing -> planar
-    -> index -> search -> control -> sim -> viz -> bench -> cli (and the public API, __init__)
+    -> index -> search -> control -> sim -> viz -> bench -> cli, ros (and the public API, __init__)
 
 ``scene`` comes after ``robot`` because its clearance measures the robot's links, and ``planar`` (pure
 kernels) after ``scene`` because its distances take the scene's shapes. ``index`` holds the robot
@@ -43,7 +43,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("sim",),
     ("viz",),
     ("bench",),
-    ("cli", "__main__", API),
+    ("cli", "ros", "__main__", API),
 )
 
 LAWS = "control.laws"

@@ -1,4 +1,4 @@
-"""Command line: ``previewctl {robots,index,map,run,paper,reach-map,view,bench}``.
+"""Command line: ``previewctl {robots,index,map,run,paper,reach-map,view,bench,ros}``.
 
 Bad input -> one line on stderr, exit 2; every exit code is in :class:`~previewctl.cli.common.ExitCode`."""
 
@@ -13,7 +13,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any, NoReturn, TextIO
 
-from previewctl.cli import bench, index, paper, reach_map, robots, run, view
+from previewctl.cli import bench, index, paper, reach_map, robots, ros, run, view
 from previewctl.cli import map as map_command
 from previewctl.cli.common import ArgumentParser, ExitCode, exit_codes_text
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
@@ -52,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="store_true", dest="log_info",  # robots has its own --verbose
                         help="log the library's diagnostics (robot, self pairs, controller, runs) to stderr")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
-    for command in (robots, index, run, paper, map_command, reach_map, view, bench):
+    for command in (robots, index, run, paper, map_command, reach_map, view, bench, ros):
         command.add_parser(commands)
     return parser
 
