@@ -3,7 +3,9 @@
 Subscribes:
 
 * ``joint_states_topic`` (``sensor_msgs/JointState``): matched by joint name (``joint_names``); extra joints are
-  ignored, a missing one stops the arm and is reported;
+  ignored, a missing one stops the arm and is reported. A joint state's age is judged from its header's stamp (its
+  arrival when unstamped), so one delivered late counts as old: the robot's clock and the node's must agree (one
+  machine, or synchronised clocks);
 * ``~/obstacles`` (``visualization_msgs/MarkerArray``): sphere, cube and cylinder markers named ``<ns>/<id>``
   (:mod:`~previewctl.ros.markers`), observed by the controller (``Controller.observe``, ``forget``, ``forget_all``);
 * ``~/path`` (``nav_msgs/Path``) and ``~/path_poses`` (``geometry_msgs/PoseArray``): a new hand path, from where
@@ -79,14 +81,15 @@ class ControllerNode(Node):
         self._data = robot.model.createData()
         self._evaluator: Evaluator | None = None
         self._q: Array | None = None
-        self._received: float | None = None  # [s] node clock, when the last joint state came
+        self._received: float | None = None  # [s] node clock, the last joint state's stamp (or arrival, unstamped)
         self._joint_error: str | None = None
         self._start: float | None = None  # [s] node clock, when the path's clock started
         self._bad_markers, self._reported_bad, self._marker_error = 0, 0, ""
         self._commands = self.create_publisher(Float64MultiArray, self.settings.commands_topic, 10)
         self._status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self._arms = self.create_publisher(MarkerArray, "~/imaginary_arms", 10)
-        self.create_subscription(JointState, self.settings.joint_states_topic, self._on_joint_state, 10)
+        # depth 1: only the latest joint state matters; a queue would feed a late node old states first
+        self.create_subscription(JointState, self.settings.joint_states_topic, self._on_joint_state, 1)
         self.create_subscription(MarkerArray, "~/obstacles", self._on_markers, 10)
         self.create_subscription(Path, "~/path", lambda msg: self._on_path([p.pose for p in msg.poses]), 10)
         self.create_subscription(PoseArray, "~/path_poses", lambda msg: self._on_path(list(msg.poses)), 10)
@@ -135,7 +138,7 @@ class ControllerNode(Node):
             if controller.planning is not None and info.plan_age is None and info.worker_error is None:
                 return zero, "waiting for the planning worker's first result", info
             self._start = now
-        qdot = controller.step(self._q, now - self._start, settings.period)
+        qdot = controller.step(self._q, now - self._start)  # applied until the next cycle: the period elapsed
         info = controller.last_info
         reason = stop_reason(age, settings.period, settings.stale_periods, info.hand_error, settings.max_hand_error,
                              info.worker_error)
@@ -160,7 +163,8 @@ class ControllerNode(Node):
             return
         angles = np.array([msg.position[index[name]] for name in self.joint_names], dtype=float)
         self._q = self.setup.robot.configuration_from_angles(angles)
-        self._received, self._joint_error = self.now(), None
+        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        self._received, self._joint_error = stamp if stamp > 0 else self.now(), None
 
     def _on_markers(self, msg: MarkerArray) -> None:
         """Observe, forget or forget all, per marker; a bad marker is counted and reported, the others still
