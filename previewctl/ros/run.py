@@ -44,11 +44,12 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
 
     args = ["previewctl", "--ros-args", *(["--params-file", params_file] if params_file else []), *ros_args]
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # Ctrl-C reaches us: zero first
-    previous = signal.signal(signal.SIGTERM, _interrupt)
+    # SIGINT too: a process started in the background of a shell inherits it ignored
+    previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
+    executor = SingleThreadedExecutor()
     try:
         node = ControllerNode()
-        executor = SingleThreadedExecutor()
         executor.add_node(node)
         if fake_robot:
             setup = node.setup
@@ -62,6 +63,9 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
     finally:
         if node is not None:
             node.stop()
-            node.destroy_node()
+        executor.shutdown()
+        for each in executor.get_nodes():
+            each.destroy_node()
         rclpy.try_shutdown()
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

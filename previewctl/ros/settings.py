@@ -91,20 +91,26 @@ def declare(node: Any) -> NodeSettings:
     Raises:
         RosError: a parameter of the wrong type or value, or neither a scenario nor a robot with waypoints.
     """
-    from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+    from rcl_interfaces.msg import ParameterDescriptor
+    from rclpy.exceptions import ParameterException, ParameterUninitializedException
+    from rclpy.parameter import Parameter
 
     hints = get_type_hints(NodeSettings)  # Annotated layers stripped: tuple[str, ...], tuple[float, ...]
     values: dict[str, Any] = {}
     for field in dataclasses.fields(NodeSettings):
         default: Any = field.default
-        if isinstance(default, tuple):
-            item = get_args(hints[field.name])[0]
-            kind = ParameterType.PARAMETER_STRING_ARRAY if item is str else ParameterType.PARAMETER_DOUBLE_ARRAY
-            descriptor = ParameterDescriptor(type=kind)
-            default = list(default)
-        else:
-            descriptor = ParameterDescriptor(dynamic_typing=True)  # 50 for 50.0 in a YAML file
-        value = node.declare_parameter(field.name, default, descriptor).value
-        values[field.name] = tuple(value) if isinstance(value, list | tuple) else value
+        try:
+            if isinstance(default, tuple):  # typed, without a value: an empty list would be taken for bytes
+                item = get_args(hints[field.name])[0]
+                node.declare_parameter(field.name, Parameter.Type.STRING_ARRAY if item is str
+                                       else Parameter.Type.DOUBLE_ARRAY)
+                try:
+                    value = tuple(node.get_parameter(field.name).value)
+                except ParameterUninitializedException:
+                    value = default
+            else:  # any type: 50 for 50.0 in a YAML file; NodeSettings checks it
+                value = node.declare_parameter(field.name, default, ParameterDescriptor(dynamic_typing=True)).value
+        except ParameterException as exc:
+            raise RosError(f"parameter {field.name!r}: {exc}") from exc
+        values[field.name] = value
     return NodeSettings(**values)
-
