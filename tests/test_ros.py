@@ -269,8 +269,8 @@ def test_stale_joint_states_stop_the_arm_within_three_periods(run: Record) -> No
     # loaded host delays the node's cycles and the deliveries (measured: 0.15-0.33 s in all)
     assert first_zero - run.paused_at < 3 / RATE + 0.3
     assert all(not np.any(qdot) for t, qdot in after if t > first_zero)
-    stale = [m for t, level, m, _ in run.statuses if t > run.paused_at + 0.2]
-    assert stale and all(m.startswith("joint states stale") for m in stale)
+    said = [m.startswith("joint states stale") for t, _, m, _ in run.statuses if t > run.paused_at]
+    assert True in said and all(said[said.index(True):])  # once stale, stale until Ctrl-C
 
 
 def test_bad_markers_are_reported_and_the_node_goes_on(run: Record) -> None:
