@@ -326,3 +326,83 @@ def test_fake_robot_refuses_a_start_of_the_wrong_size() -> None:
     finally:
         rclpy.try_shutdown(context=context)
 
+
+
+# --- the node in this process, without DDS traffic -------------------------------------------------------------
+
+
+@pytest.fixture()
+def planar_node() -> Any:
+    """A node on planar4 made from robot + waypoints (no scenario), its commands and statuses captured."""
+    from rclpy.parameter import Parameter
+
+    from previewctl.ros.node import ControllerNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = ControllerNode(context=context, parameter_overrides=[
+        Parameter("robot", value="planar4"),
+        Parameter("waypoints", value=[1.9069, 1.0417, 1.6069, 0.6417]),
+        Parameter("duration", value=2.0),
+        Parameter("joint_names", value=["j1", "j2", "j3", "j4"]),
+    ])
+    node.sent = []  # type: ignore[attr-defined]
+    node.said = []  # type: ignore[attr-defined]
+    node._commands.publish = lambda msg: node.sent.append(np.array(msg.data))  # type: ignore[method-assign]
+    node._status.publish = lambda msg: node.said.append(msg.status[0])  # type: ignore[method-assign]
+    yield node
+    node.stop()
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+
+
+def _joint_state(names: list[str], positions: list[float]) -> Any:
+    from sensor_msgs.msg import JointState
+
+    return JointState(name=names, position=positions)  # unstamped: its arrival is its time
+
+
+def test_node_matches_joints_by_name_and_stops_for_a_missing_one(planar_node: Any) -> None:
+    node = planar_node
+    assert node.controller.name == "gradient"  # without a scenario naming one
+    node._on_joint_state(_joint_state(["extra", "j4", "j3", "j2", "j1"], [9.0, -1.0, -1.2, 1.0, 0.6]))
+    node.cycle()
+    assert node.said[-1].message == "running" and np.any(node.sent[-1])
+    np.testing.assert_allclose(node._q, [0.6, 1.0, -1.2, -1.0])  # by name, the extra joint ignored
+    node._on_joint_state(_joint_state(["j1", "j2", "j4"], [0.6, 1.0, -1.0]))
+    node.cycle()
+    assert node.said[-1].message == "joint states lack joints j3 (got: j1, j2, j4)"
+    assert node.said[-1].level[0] == 2  # ERROR
+    assert not np.any(node.sent[-1])
+
+
+def test_node_stops_for_an_exception_and_goes_on(planar_node: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    node = planar_node
+    node._on_joint_state(_joint_state(["j1", "j2", "j3", "j4"], [0.6, 1.0, -1.2, -1.0]))
+    node.cycle()
+    real = node.controller.step
+
+    def broken(*args: Any, **kwargs: Any) -> np.ndarray:
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(node.controller, "step", broken)
+    node.cycle()
+    assert node.said[-1].message == "exception: ZeroDivisionError: a bug" and not np.any(node.sent[-1])
+    monkeypatch.setattr(node.controller, "step", real)
+    node.cycle()
+    assert node.said[-1].message == "running"
+
+
+def test_node_follows_a_new_path_from_the_hand(planar_node: Any) -> None:
+    from geometry_msgs.msg import Pose
+
+    node = planar_node
+    node._on_joint_state(_joint_state(["j1", "j2", "j3", "j4"], [0.6, 1.0, -1.2, -1.0]))
+    node.cycle()
+    old = node.controller
+    goal = Pose()
+    goal.position.x, goal.position.y = 1.7069, 1.0417  # 0.2 m in -x from the hand
+    node._on_path([goal])
+    assert node.controller is not old
+    np.testing.assert_allclose(node.controller.path.waypoints, [[1.9069, 1.0417], [1.7069, 1.0417]], atol=1e-4)
+    assert node.controller.path.duration == pytest.approx(0.2 / 0.05, rel=1e-3)  # at path_speed
