@@ -94,6 +94,9 @@ class ControllerNode(Node):
         self.create_subscription(Path, "~/path", lambda msg: self._on_path([p.pose for p in msg.poses]), 10)
         self.create_subscription(PoseArray, "~/path_poses", lambda msg: self._on_path(list(msg.poses)), 10)
         self._timer = self.create_timer(self.settings.period, self.cycle)
+        # the first log call of a process is slow (tens of ms): made here, not in a control period
+        self.get_logger().info(f"{self.controller.name} on {robot.name} at {self.settings.rate:g} Hz, commands on "
+                               f"{self.settings.commands_topic}")
 
     def now(self) -> float:
         """The node clock [s]."""
@@ -175,7 +178,7 @@ class ControllerNode(Node):
             except PreviewctlError as exc:
                 self._bad_markers += 1
                 self._marker_error = str(exc)
-                self.get_logger().warning(f"bad marker: {exc}")
+                self.get_logger().warning(f"bad marker: {exc}", throttle_duration_sec=1.0)  # all on ~/status
 
     def _apply(self, marker: Marker) -> None:
         frame = self.settings.frame_id
@@ -205,7 +208,7 @@ class ControllerNode(Node):
             controller = controller_for(self.setup, self.settings, path)
         except PreviewctlError as exc:
             self._marker_error = f"path refused: {exc}"
-            self.get_logger().warning(self._marker_error)
+            self.get_logger().warning(self._marker_error, throttle_duration_sec=1.0)
             return
         self.controller.close()
         self.controller, self._start, self._evaluator = controller, None, None
