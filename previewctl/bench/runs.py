@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
+from previewctl.bench.pink import BARRIER_GAINS, PinkExecution, make_pink_controller
 from previewctl.bench.robots import cached_robot, profile, urdf_digest
 from previewctl.bench.scenes import BenchScene
 from previewctl.bench.settings import SceneSettings
@@ -110,10 +111,13 @@ def _scenario(document: str) -> Scenario:
     return scenario_from_dict(data, source=data["name"])
 
 
-def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult, list[float]]:
+def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult, dict[str, Any]]:
     """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller, execution and
-    latency), its log (exact check on the robot's mesh geometry) and the CPU time [s] of each plan its window planner
-    made (empty without one). An ``oracle`` follows the scene's
+    latency), its log (exact check on the robot's mesh geometry) and what its result line adds for this controller:
+    the CPU times of its window planner's plans (:func:`plan_costs`), or for a pink baseline
+    (:mod:`previewctl.bench.pink`) the cycles where it found no solution and its own time per cycle
+    (:meth:`~previewctl.bench.pink.PinkExecution.record`).
+    An ``oracle`` follows the scene's
     :attr:`~BenchScene.oracle_plan` when it has one: the plan it would make (a test checks the runs are the same),
     made once per scene by the witness, so this run's CPU time leaves the planning out."""
     base = _scenario(json.dumps(scene.document, sort_keys=True))
@@ -121,15 +125,21 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     params = dataclasses.replace(base.controller.params, execution=execution)
     if spec.latency == MEASURED:
         params = dataclasses.replace(params, plan_latency=MEASURED)
+    exact = Evaluator(cached_robot(spec.robot, "mesh"), base.scene, base.index, base.potential)
+    if spec.controller in BARRIER_GAINS:
+        scenario = dataclasses.replace(base, controller=ControllerSpec(base.controller.name, params))
+        pink = make_pink_controller(spec.controller, scenario.robot, scenario.path, scenario.scene, params,
+                                    scenario.timing.dt)
+        result = simulate(scenario, controller=pink, exact_evaluator=exact)
+        return scenario, result, cast(PinkExecution, pink.execution).record()
     scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
-    exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
     with shared_settings():  # every controller gets the profile's one table
         controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
     result = simulate(scenario, controller=controller, exact_evaluator=exact)
     planner = window_planner(controller.law)
-    return scenario, result, [] if planner is None else planner.costs
+    return scenario, result, plan_costs([] if planner is None else planner.costs)
 
 
 def window_planner(law: ControlLaw) -> WindowPlanner | None:
@@ -163,6 +173,6 @@ def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
         metrics = {k: v for k, v in made.items() if k not in ("execution", "seed")}
         return {**dataclasses.asdict(spec), "scenario": scene.document["name"], **metrics}
     start, cpu = time.perf_counter(), time.process_time()
-    scenario, result, costs = simulate_spec(spec, scene)
-    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **plan_costs(costs),
+    scenario, result, fields = simulate_spec(spec, scene)
+    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **fields,
             "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

@@ -21,6 +21,8 @@ from typing import Annotated, Any
 from pydantic import Field, InstanceOf
 
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
+from previewctl.bench.pink import BARRIER_GAINS, pink_module
+from previewctl.bench.pink import EXECUTION as PINK_EXECUTION
 from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.robots import VALID_ROBOTS, bench_source, profile
@@ -53,7 +55,8 @@ class Sweep(Checked):
         robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
-            ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
+            ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``), or pink baselines
+            (:data:`~previewctl.bench.pink.BARRIER_GAINS`, only when named; they run under the QP mode only).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
         seeds: controller seeds, each once (of the controllers that draw random numbers; the others run once per
             scene, as seed 0).
@@ -78,6 +81,7 @@ class Sweep(Checked):
 
         Raises:
             UnknownNameError: an unknown robot, controller, execution mode or latency (the valid ones listed).
+            MissingExtraError: a pink baseline named without pink installed.
             RobotLoadError: a missing URDF file or one that does not load as an arm.
             ParameterError: no robot, no seed, no latency, or an arm no profile can be derived for.
         """
@@ -91,8 +95,10 @@ class Sweep(Checked):
         for robot in self.robots:
             profile(robot)
         for name in self.controllers:
-            if name not in control_params.CONTROLLER_NAMES:
-                raise UnknownNameError("controller", name, control_params.CONTROLLER_NAMES)
+            if name not in control_params.CONTROLLER_NAMES and name not in BARRIER_GAINS:
+                raise UnknownNameError("controller", name, (*control_params.CONTROLLER_NAMES, *BARRIER_GAINS))
+        if any(name in BARRIER_GAINS for name in self.controllers):
+            pink_module()  # before a cluster starts: one line naming the extra
         for name in self.executions:
             if name not in control_params.EXECUTION_MODES:
                 raise UnknownNameError("execution mode", name, control_params.EXECUTION_MODES)
@@ -103,12 +109,12 @@ class Sweep(Checked):
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
 
-        ``none`` runs under the pseudo-inverse only and ``qp`` under the QP only
-        (:func:`~previewctl.control.params.controller_runs`); a controller that draws no random numbers runs for
+        ``none`` runs under the pseudo-inverse only, ``qp`` and the pink baselines under the QP only
+        (:func:`run_pairs`); a controller that draws no random numbers runs for
         seed 0 only (:func:`~previewctl.control.params.run_seed`), and one without a replanned planner inline only
         (:func:`~previewctl.bench.runs.run_latency`)."""
-        pairs = control_params.controller_runs(self.controllers or control_params.CONTROLLER_NAMES,
-                                               self.executions or control_params.EXECUTION_MODES)
+        pairs = run_pairs(self.controllers or control_params.CONTROLLER_NAMES,
+                          self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
@@ -120,6 +126,19 @@ class Sweep(Checked):
                 specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed, latency)
                           for seed, name, execution, latency in runs]
         return specs
+
+
+def run_pairs(names: tuple[str, ...], executions: tuple[str, ...]) -> list[tuple[str, str]]:
+    """The ``(controller, execution)`` pairs of ``names`` × ``executions``, in order (names outer): previewctl's
+    controllers as :func:`~previewctl.control.params.controller_runs` says, a pink baseline under
+    :data:`~previewctl.bench.pink.EXECUTION` only (if it is asked for)."""
+    pairs: list[tuple[str, str]] = []
+    for name in names:
+        if name in BARRIER_GAINS:
+            pairs += [(name, PINK_EXECUTION)] if PINK_EXECUTION in executions else []
+        else:
+            pairs += control_params.controller_runs([name], executions)
+    return pairs
 
 
 @dataclass

@@ -11,6 +11,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from previewctl.bench.keep import FAILURES_KEPT
+from previewctl.bench.pink import BARRIER_GAINS
 from previewctl.bench.profiles import PROFILES
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
@@ -53,7 +54,9 @@ def add_parser(commands: Commands) -> None:
            "any arm `previewctl robots --all` lists or a URDF file (a profile derived from the arm's reach)")
     option("--scenes", type=int, default=10, metavar="N", help="scenes per robot (default 10)")
     option("--controller", metavar="NAMES",
-           help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
+           help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)}); also the pink "
+           f"baselines {', '.join(BARRIER_GAINS)} (pink's solve_ik with its collision barrier at the gains of pink's "
+           "examples; only when named, under the QP execution only; need pip install 'previewctl[bench]')")
     option("--execution", metavar="NAMES",
            help=f"comma-separated execution modes (default: all of {', '.join(EXECUTION_MODES)})")
     option("--seed", type=seed_list, default=(0,), metavar="SEEDS",
