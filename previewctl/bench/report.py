@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
+from previewctl.bench.pink import BARRIER_GAINS
 from previewctl.bench.provenance import UNKNOWN, now
 from previewctl.bench.runs import INLINE, record_key
 from previewctl.control import params as control_params
@@ -146,25 +147,66 @@ def _plan_costs(groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]]) 
     return [*lines, ""] if rows else []
 
 
-def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
-    """Scenes where a controller that looks ahead succeeds (< 1 mm) and ``qp`` fails, and the reverse, per robot and
-    execution of the controller (``qp`` is always a QP, and the same run for every seed)."""
+def _against_baseline(records: list[dict[str, Any]], baseline: str = BASELINE,
+                      contenders: tuple[str, ...] = (*LOOKING_AHEAD, *BARRIER_GAINS)) -> list[str]:
+    """Scenes where a contender (by default a controller that looks ahead, or a pink baseline) succeeds (< 1 mm) and
+    ``baseline`` fails, and the reverse, per robot and execution of the contender (``qp`` and the pink baselines are
+    always a QP, and the same run for every seed)."""
     outcome = {(r["robot"], r["scene"], r["seed"], _label(r), r["execution"]): r for r in records}
-    lines = [f"## Preview against the `{BASELINE}` baseline (success < 1 mm, same scene; the baseline is always "
+    pink = any(r["controller"] in contenders and r["controller"] in BARRIER_GAINS for r in records)
+    what = "Preview and pink" if pink else "Preview"
+    lines = [f"## {what} against the `{baseline}` baseline (success < 1 mm, same scene; the baseline is always "
              "executed by the QP and draws no random numbers: its seed-0 run stands for every seed)", ""]
-    if not any(r["controller"] == BASELINE for r in records):
-        return [*lines, f"No `{BASELINE}` runs in these results: nothing to compare with.", ""]
-    lines += ["| robot | preview | execution | beats qp on (scene:seed) | loses to qp on (scene:seed) |",
-              "|---|---|---|---|---|"]
+    if not any(r["controller"] == baseline for r in records):
+        return [*lines, f"No `{baseline}` runs in these results: nothing to compare with.", ""]
+    lines += [f"| robot | controller | execution | beats {baseline} on (scene:seed) | loses to {baseline} on "
+              "(scene:seed) |", "|---|---|---|---|---|"]
     pairs: dict[tuple[str, str, str], tuple[list[str], list[str]]] = defaultdict(lambda: ([], []))
     for (robot, scene, seed, controller, execution), r in sorted(outcome.items()):
-        base = outcome.get((robot, scene, control_params.run_seed(BASELINE, seed), BASELINE, "qp"))
-        if r["controller"] not in LOOKING_AHEAD or base is None or r["success_1mm"] == base["success_1mm"]:
+        base = outcome.get((robot, scene, control_params.run_seed(baseline, seed), baseline, "qp"))
+        if r["controller"] not in contenders or base is None or r["success_1mm"] == base["success_1mm"]:
             continue
         pairs[(robot, controller, execution)][0 if r["success_1mm"] else 1].append(f"{scene}:{seed}")
     for (robot, controller, execution), (wins, losses) in sorted(pairs.items()):
         lines.append(f"| {robot} | {controller} | {execution} | {', '.join(wins) or '-'} | "
                      f"{', '.join(losses) or '-'} |")
+    return [*lines, ""]
+
+
+def _pink_note(records: list[dict[str, Any]]) -> list[str]:
+    """When pink baselines ran: what they are and model, their gains, and their cycle time beside previewctl's
+    (the medians over the runs of each run's median control cycle [ms], per robot)."""
+    names = [name for name in BARRIER_GAINS if any(r["controller"] == name for r in records)]
+    if not names:
+        return []
+    gains = ", ".join(f"`{name}` γ = {BARRIER_GAINS[name]:g} 1/s" for name in names)
+    lines = ["## The pink baselines", "",
+             f"Rows {', '.join(f'`{name}`' for name in names)} are [pink](https://github.com/stephane-caron/pink)'s "
+             "differential IK (`solve_ik`) as its examples use it, stepped by the same simulator and checked by the "
+             "same exact check: a position-only `FrameTask` on the hand (target `r_d(t + dt)`: pink's tasks take no "
+             "velocity feed-forward), a small `PostureTask`, pink's default configuration and velocity limits, and a "
+             "`SelfCollisionBarrier` over the guarded link-obstacle pairs and the arm's self pairs, DAQP as the "
+             "solver. The barrier keeps each pair's distance above `d_min` (the QP's safety distance) by "
+             "`ḣ ≥ −γ h`: it models distances only. Each obstacle is placed where it is at the cycle's time and "
+             "counts as still within the cycle: unlike the `qp` baseline's dampers, the barrier does not know how "
+             "fast an obstacle comes. The barrier gain has no counterpart in previewctl; each gain pink's examples "
+             f"use ran as its own row, nothing tuned on these scenes: {gains}. A cycle where pink found no solution "
+             "commands q̇ = 0.", "",
+             "Control cycle, the medians over the runs of each run's median [ms] (a pink cycle also computes "
+             "eq. 19's reference, which the log records and pink does not read; *pink's share* is the time "
+             "inside pink's calls alone):", "",
+             "| robot | controller | runs | cycle median [ms] | pink's share [ms] | cycles without a solution |",
+             "|---|---|---|---|---|---|"]
+    for robot, cells in _groups(records).items():
+        for (label, _), rows in cells.items():
+            pink = label in BARRIER_GAINS
+            if not pink and label not in (BASELINE, *LOOKING_AHEAD):
+                continue
+            share = f"{statistics.median(r['pink_time_median'] for r in rows) * 1e3:.2f}" if pink else "-"
+            missed = str(sum(r["pink_no_solution"] for r in rows)) if pink else "-"
+            lines.append(f"| {robot} | {label} | {len(rows)} | "
+                         f"{statistics.median(r['cycle_time_median'] for r in rows) * 1e3:.2f} | {share} | "
+                         f"{missed} |")
     return [*lines, ""]
 
 
@@ -227,6 +269,10 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
         lines += _rates_table(robot, cells)
     lines += _plan_costs(groups)
     lines += _against_baseline(records)
+    for name in BARRIER_GAINS:
+        if any(r["controller"] == name for r in records):
+            lines += _against_baseline(records, name, LOOKING_AHEAD)
+    lines += _pink_note(records)
     if kept:
         lines += _kept(records, out)
     figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}
