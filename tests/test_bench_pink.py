@@ -128,7 +128,8 @@ def test_the_sweep_runs_pink_under_the_qp_only_and_once_per_scene() -> None:
 
 
 def test_an_unknown_controller_lists_the_pink_baselines() -> None:
-    with pytest.raises(UnknownNameError, match=r"unknown controller 'pinky'; valid: none, .*, oracle, pink, pink-g100$"):
+    listed = r"unknown controller 'pinky'; valid: none, .*, oracle, pink, pink-g100$"
+    with pytest.raises(UnknownNameError, match=listed):
         Sweep(controllers=("pinky",))
     with pytest.raises(UnknownNameError, match=r"unknown pink baseline 'pink-g5'; valid: pink, pink-g100$"):
         barrier_gain("pink-g5")
@@ -170,6 +171,7 @@ def test_report_sets_pink_beside_qp_and_preview_against_pink_with_a_note(tmp_pat
     assert "| planar4 | multi | qp | 1:0 | 2:0 |" in text.split("against the `pink` baseline")[1]
     assert "`pink` γ = 20 1/s" in text and "pink-g100" not in text
     assert "does not know how fast an obstacle comes" in text
+    assert "`previewctl bench --robot planar4 --scenes 3 --scene-seed 0 --controller qp,multi,pink` |" in text
     assert "| planar4 | pink | 3 | 4.00 | 3.00 | 3 |" in text and "| planar4 | qp | 3 | 1.00 | - | - |" in text
     plain = write_report([r for r in records if r["controller"] != "pink"], [], tmp_path)[0].read_text()
     assert "pink" not in plain and "## Preview against the `qp` baseline" in plain

@@ -103,6 +103,7 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
             command = f"previewctl bench --robot {robot} --scenes {scenes[-1] + 1} --scene-seed {scene_seed}"
             latencies = sorted({_latency(r) for r in mine})
             command += f" --latency {','.join(latencies)}" if latencies != [INLINE] else ""
+            command += f" --controller {','.join(controllers)}" if set(controllers) & set(BARRIER_GAINS) else ""
             lines.append(f"| {robot} | {_span(scenes)} | {scene_seed} | {_span([r['seed'] for r in mine])} | "
                          f"{', '.join(controllers)} | {', '.join(executions)} | `{command}` |")
     return [*lines, ""]
