@@ -14,7 +14,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import planar_doc
+from helpers import PLANAR_START, planar_doc
 
 from previewctl.bench.pink import BARRIER_GAINS, EXECUTION, barrier_gain, make_pink_controller
 from previewctl.bench.report import write_report
@@ -53,6 +53,24 @@ def test_pink_avoids_a_static_disc_that_plain_tracking_hits(name: str) -> None:
     assert (result.controller, result.execution) == (name, "pink")
     assert controller.execution.no_solution == 0
     assert f"barrier gain {BARRIER_GAINS[name]:g}" in result.composition
+
+
+def test_a_cycle_without_a_solution_holds_the_arm_and_is_counted() -> None:
+    """A link 1 cm from a disc (inside ``d_min`` = 2 cm) and speed limits too low to leave at the barrier's rate:
+    pink finds no solution, and the arm holds still instead of the run failing."""
+    needs_pink()
+    disc = {**DISC, "radius": 0.05, "position": [PLANAR_START[0] + 0.09, PLANAR_START[1], 0.0]}
+    scenario = scenario_from_dict(planar_doc(obstacles=[disc], timing={"duration": 0.2},
+                                             controller={"velocity_scale": 1e-3}))
+    controller = make_pink_controller("pink-g100", scenario.robot, scenario.path, scenario.scene,
+                                      scenario.controller.params, scenario.timing.dt)
+    result = simulate(scenario, controller=controller)
+    execution = controller.execution
+    assert -0.015 < execution.barrier.compute_barrier(execution.configuration).min() < -0.005  # d - d_min, pink's
+    assert result.collision_index is None
+    assert execution.no_solution == result.steps == 21
+    np.testing.assert_array_equal(result.q, np.repeat(result.q[:1], result.steps, axis=0))
+    assert execution.record()["pink_no_solution"] == 21
 
 
 def _barrier_rows_against_central_differences(robot: Robot, scene: Scene, q: np.ndarray) -> int:
