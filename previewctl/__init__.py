@@ -48,7 +48,7 @@ from previewctl.kinematics import integrate
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
-from previewctl.scene.motion import ConstantVelocity, Periodic, Static, Waypoints
+from previewctl.scene.motion import ConstantVelocity, Periodic, RandomWalk, SpeedChange, Static, Turn, Waypoints
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA
@@ -89,6 +89,7 @@ __all__ = [
     "PlanningWorkerError",
     "Potential",
     "PreviewctlError",
+    "RandomWalk",
     "Robot",
     "RobotLoadError",
     "RunResult",
@@ -96,9 +97,11 @@ __all__ = [
     "ScenarioError",
     "Scene",
     "SceneError",
+    "SpeedChange",
     "Sphere",
     "Static",
     "TrajectoryError",
+    "Turn",
     "UnknownNameError",
     "UnreachableTargetError",
     "Waypoints",
