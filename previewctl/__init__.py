@@ -30,6 +30,7 @@ from previewctl.control.factory import make_controller
 from previewctl.control.params import CONTROLLER_NAMES, ControllerParams
 from previewctl.errors import (
     ConfigurationError,
+    ObservationError,
     ParameterError,
     PlanningWorkerError,
     PreviewctlError,
@@ -54,6 +55,8 @@ from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA
 from previewctl.search.genes import Candidate
 from previewctl.search.maps import redundancy_map
+from previewctl.sensing.options import Sensing
+from previewctl.sensing.predictors import ConstantVelocityKalman, Predictor, Stationary
 from previewctl.sim.log import RunResult, load_run, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
@@ -70,6 +73,7 @@ __all__ = [
     "Capsule",
     "ConfigurationError",
     "ConstantVelocity",
+    "ConstantVelocityKalman",
     "ControlInfo",
     "Controller",
     "ControllerParams",
@@ -81,12 +85,14 @@ __all__ = [
     "IndexParams",
     "Landscape",
     "Mesh",
+    "ObservationError",
     "Obstacle",
     "OneStepGA",
     "ParameterError",
     "Periodic",
     "Plane",
     "PlanningWorkerError",
+    "Predictor",
     "Potential",
     "PreviewctlError",
     "RandomWalk",
@@ -97,9 +103,11 @@ __all__ = [
     "ScenarioError",
     "Scene",
     "SceneError",
+    "Sensing",
     "SpeedChange",
     "Sphere",
     "Static",
+    "Stationary",
     "TrajectoryError",
     "Turn",
     "UnknownNameError",

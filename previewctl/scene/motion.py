@@ -36,6 +36,28 @@ class Motion(Protocol):
         ...
 
 
+@runtime_checkable
+class Uncertain(Protocol):
+    """A motion that is a prediction (:mod:`previewctl.sensing`): the distance computations
+    (:class:`~previewctl.scene.clearance.Clearance`, the planar path of the evaluator) inflate its obstacle by
+    :meth:`margin`, and read its state again whenever :attr:`revision` changes (a new observation)."""
+
+    @property
+    def revision(self) -> int:
+        """A number that changes whenever the prediction does."""
+        ...
+
+    def margin(self, times: ArrayLike) -> NDArray[np.float64]:
+        """How much the obstacle is inflated at times ``(T,)`` [s]: ``(T,)`` [m], >= 0."""
+        ...
+
+
+def margin_at(motion: Motion, t: float) -> float:
+    """The inflation [m] of an obstacle with ``motion`` at time ``t`` [s]: an :class:`Uncertain` motion's margin, else
+    0."""
+    return float(motion.margin(np.array([t]))[0]) if isinstance(motion, Uncertain) else 0.0
+
+
 # ----------------------------------------------------------------------------- validation
 
 
