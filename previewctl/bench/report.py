@@ -190,7 +190,7 @@ def _observed_against_known(records: list[dict[str, Any]]) -> list[str]:
     known: dict[tuple[Any, ...], dict[str, Any]] = {}
     observed: dict[tuple[Any, ...], dict[str, Any]] = {}
     for r in records:
-        key = (r["robot"], r["controller"], _latency(r), r["execution"], r["settings"], r["scene"], r["seed"])
+        key = (r["robot"], r["controller"], _latency(r), r["execution"], r.get("settings"), r["scene"], r["seed"])
         (known if _sensing(r) == KNOWN else observed)[key] = r
     pairs: dict[tuple[str, str, str], list[tuple[bool, bool]]] = defaultdict(list)
     for key, r in observed.items():
