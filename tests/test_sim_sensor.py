@@ -4,16 +4,19 @@ it, and a run fed only observations."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from helpers import planar_doc
+from helpers import planar_doc, tiny_planar_toml
 
+from previewctl.cli.main import main
 from previewctl.control.factory import make_controller
 from previewctl.scene.motion import ConstantVelocity, Static, Turn
 from previewctl.scene.shapes import Obstacle, Scene, Sphere
 from previewctl.sensing.options import Sensing
+from previewctl.sim.log import load_summary
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import scenario_from_dict
 from previewctl.sim.sensor import Sensor
@@ -107,3 +110,29 @@ def test_a_planar_run_with_sensing_succeeds_on_observations_alone() -> None:
     assert 0 < summary["observations_dropped"] < 15
     assert result.observations[:5].tolist() == [0, 0, 0, 0, 0] and result.observations[5] == 1  # the first at 50 ms
     assert controller.observed is not None and "ball" in {o.name for o in controller.observed.world.scene.obstacles}
+
+
+def test_run_prints_the_observations_delivered_and_dropped(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sections = """
+[controller]
+name = "qp"
+[[obstacles]]
+name = "ball"
+shape = "cylinder"
+radius = 0.1
+length = 0.4
+motion = { type = "turn", position = [1.6, 1.6], velocity = [-0.1, -0.1], turn_time = 0.5, angle = 1.0, rate = 1.0 }
+[sensing]
+rate = 20.0
+latency = 0.1
+[output]
+figures = []
+gif = false
+"""
+    scenario = tmp_path / "observed.toml"
+    scenario.write_text(tiny_planar_toml("observed", sections))
+    assert main(["run", str(scenario), "--out", str(tmp_path / "out")]) == 0
+    # 20 Hz over [0, 1] s delivered 100 ms late: t_obs = 0 .. 0.9 s by the last step
+    assert "observations              19 delivered, 0 dropped (20 Hz, noise 5 mm, latency 100 ms, dropout 0)" in \
+        capsys.readouterr().out
+    assert load_summary(tmp_path / "out")["observations"] == 19
