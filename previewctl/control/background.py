@@ -231,6 +231,7 @@ class BackgroundPlanning:
         self.worker: PlanningWorker | None = None
         self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
         self._posting = False
+        self._stale = False  # the answer to the state in flight was computed on an old set of obstacles
         self._arms: RemoteArms | None = None  # reach's stand-ins (reach())
         self._peaks: RemotePeaks | None = None
 
@@ -259,6 +260,12 @@ class BackgroundPlanning:
                        else self.options.plan_valid_periods * timing.replan_period)
         return Follower(planner.robot, planner.evaluator, timing)
 
+    def rescene(self) -> None:
+        """The set of observed obstacles changed: no result is in use, the answer to a state sent before is dropped,
+        and the next cycle posts its state (with the new set) at once."""
+        self.result, self._posting = None, True
+        self._stale = self.worker is not None and self.worker.busy
+
     def start(self, build: Callable[[], PlanningSide], compute: Compute = answer) -> None:
         """Start the worker, which runs ``compute(build(), q, t)`` for each state posted."""
         self.worker = PlanningWorker(build, compute, timeout=self.options.timeout, niceness=self.options.niceness)
@@ -273,7 +280,9 @@ class BackgroundPlanning:
         if self._posting:
             worker.post(state.q.copy(), state.t, observed)
         for result in worker.exchange():
-            if result is not None:
+            if self._stale:
+                self._stale = False
+            elif result is not None:
                 self._take(result, state)
         if self._posting and not worker.waiting:
             self._posting = False

@@ -249,11 +249,12 @@ def _rebuild(spec: ControllerSpec, robot: Robot, index: IndexParams | None, pote
              rng: np.random.Generator, search_factory: SearchFactory | None, beside: BackgroundPlanning | None,
              scene: Scene) -> tuple[ControlLaw, Execution]:
     """The law and the execution of ``spec`` composed on ``scene`` (an observed world that changed): new searches
-    drawing on from ``rng``, a new planner; with background planning, no result in use until the worker's next."""
+    drawing on from ``rng``, a new planner; with background planning, no result in use until the worker answers a state
+    posted with the new scene (:meth:`~previewctl.control.background.BackgroundPlanning.rescene`)."""
     parts = compose(spec, robot, scene, Evaluator(robot, scene, index, potential), rng, search_factory=search_factory,
                     beside=beside)
     if beside is not None:
-        beside.result = None
+        beside.rescene()
     return parts.law, parts.execution
 
 

@@ -75,6 +75,11 @@ class PlanningWorker:
         self._slot = (q, t, news)
 
     @property
+    def busy(self) -> bool:
+        """Whether a state sent is still unanswered (the worker's start counts as one)."""
+        return self._sent_at is not None
+
+    @property
     def waiting(self) -> bool:
         """Whether a posted state is still in the slot (the worker was busy)."""
         return self._slot is not None

@@ -48,7 +48,7 @@ class Sensing(Checked):
     predictor: PredictorName | Any = "kalman"
     timeout: Positive = 1.0
     names: tuple[Text, ...] | None = None
-    process_noise: NonNegative = 0.5
+    process_noise: NonNegative = 0.05
     measurement_noise: Positive = 0.005
     velocity_noise: Positive = 0.05
     initial_speed: Positive = 1.0
