@@ -184,3 +184,12 @@ def test_a_new_observation_moves_the_obstacle_at_the_same_time(planar4: Robot) -
     after = evaluator(q, 1.0).min_distance[0]
     moved = Evaluator(planar4, pc.Scene((pc.Obstacle("ball", BALL, pc.Static([2.0, 1.8])),)), method="general")
     assert after != before and after == pytest.approx(moved(q, 1.0).min_distance[0])
+
+
+def test_around_a_spatial_arm_a_2d_observation_is_refused() -> None:
+    w = World(pc.Scene(), pc.Sensing(), spatial="panda")
+    with pytest.raises(ObservationError, match=r"position of 'ball' \[0\.5, 0\.2\] is 2-D, but robot 'panda' is "
+                                               r"spatial: give \[x, y, z\]"):
+        w.observe("ball", [0.5, 0.2], 0.0, shape=BALL)
+    w.observe("ball", [0.5, 0.2, 0.3], 0.0, shape=BALL)
+    assert w.advance(0.0).added == ("ball",)

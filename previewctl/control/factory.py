@@ -214,7 +214,8 @@ def make_controller(
     index = base.index if index is None else index
     potential = base.potential if potential is None else potential
     sensing = base.sensing if sensing is None else sensing
-    world = None if sensing is None else World(scene, sensing)
+    spatial = None if robot.task == "planar" or robot.planar is not None else robot.name  # as check_dimensions
+    world = None if sensing is None else World(scene, sensing, spatial=spatial)
     if world is not None:
         scene = world.scene  # without the observed obstacles until they are observed
     evaluator = Evaluator(robot, scene, index, potential)

@@ -56,13 +56,15 @@ class World:
     Args:
         scene: the scenario's scene: obstacles observed by ``sensing.names`` leave it until first observed.
         sensing: predictor, timeout, observed names, margin.
+        spatial: the name of the arm if it is spatial (positions and velocities then need 3 entries), ``None`` for a
+            planar arm (2 entries mean ``z = 0``).
 
     Raises:
         ObservationError: ``sensing.names`` names a static obstacle or one the scene does not have.
     """
 
-    def __init__(self, scene: Scene, sensing: Sensing) -> None:
-        self.sensing = sensing
+    def __init__(self, scene: Scene, sensing: Sensing, *, spatial: str | None = None) -> None:
+        self.sensing, self.spatial = sensing, spatial
         names = sensing.observed(scene)
         known = {o.name: o for o in scene.obstacles}
         for name in names:
@@ -106,9 +108,9 @@ class World:
             raise ObservationError(f"obstacle {name!r} is known from the scene and not observed; observed: "
                                    f"{', '.join(self._shapes) or 'none'} (Sensing.names)")
         time = real_scalar(t, "t", ObservationError)
-        point = _vector(position, f"position of {name!r}")
+        point = self._vector(position, f"position of {name!r}")
         turn = None if rotation is None else rotation_matrix(rotation, f"rotation of {name!r}", ObservationError)
-        speed = None if velocity is None else _vector(velocity, f"velocity of {name!r}")
+        speed = None if velocity is None else self._vector(velocity, f"velocity of {name!r}")
         if shape is not None and not isinstance(shape, SHAPES):
             raise ObservationError(f"shape of {name!r} must be one of {', '.join(s.__name__ for s in SHAPES)}, got "
                                    f"{type(shape).__name__} {show(shape)}")
@@ -170,15 +172,18 @@ class World:
         self._added, self._dropped, self._changed = [], [], False
         return changes
 
+    def _vector(self, value: ArrayLike, name: str) -> Array:
+        """A position or velocity as ``(3,)`` (2 entries, around a planar arm: ``z = 0``); :class:`ObservationError`
+        naming ``name``."""
+        array = real_array(value, name, ObservationError)
+        if array.shape not in ((2,), (3,)):
+            raise ObservationError(f"{name} must have 2 or 3 entries, got shape {array.shape}: {show(array)}")
+        if array.shape == (2,) and self.spatial is not None:
+            raise ObservationError(f"{name} {show(array)} is 2-D, but robot {self.spatial!r} is spatial: give "
+                                   "[x, y, z] [m] (2 entries are for planar arms)")
+        check_finite(array, name, ObservationError)
+        return np.append(array, 0.0) if array.shape == (2,) else array
+
     def observed_obstacles(self) -> tuple[Obstacle, ...]:
         """The observed obstacles of :attr:`scene` (each with its :class:`~previewctl.sensing.track.Track`)."""
         return tuple(o for o in self.scene.obstacles if isinstance(o.motion, Track))
-
-
-def _vector(value: ArrayLike, name: str) -> Array:
-    """A position or velocity as ``(3,)`` (2 entries: ``z = 0``); :class:`ObservationError` naming ``name``."""
-    array = real_array(value, name, ObservationError)
-    if array.shape not in ((2,), (3,)):
-        raise ObservationError(f"{name} must have 2 or 3 entries, got shape {array.shape}: {show(array)}")
-    check_finite(array, name, ObservationError)
-    return np.append(array, 0.0) if array.shape == (2,) else array
