@@ -30,6 +30,7 @@ from previewctl.control.factory import make_controller
 from previewctl.control.params import CONTROLLER_NAMES, ControllerParams
 from previewctl.errors import (
     ConfigurationError,
+    ObservationError,
     ParameterError,
     PlanningWorkerError,
     PreviewctlError,
@@ -48,12 +49,14 @@ from previewctl.kinematics import integrate
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
-from previewctl.scene.motion import ConstantVelocity, Periodic, Static, Waypoints
+from previewctl.scene.motion import ConstantVelocity, Periodic, RandomWalk, SpeedChange, Static, Turn, Waypoints
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA
 from previewctl.search.genes import Candidate
 from previewctl.search.maps import redundancy_map
+from previewctl.sensing.options import Sensing
+from previewctl.sensing.predictors import ConstantVelocityKalman, Predictor, Stationary
 from previewctl.sim.log import RunResult, load_run, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
@@ -70,6 +73,7 @@ __all__ = [
     "Capsule",
     "ConfigurationError",
     "ConstantVelocity",
+    "ConstantVelocityKalman",
     "ControlInfo",
     "Controller",
     "ControllerParams",
@@ -81,6 +85,7 @@ __all__ = [
     "IndexParams",
     "Landscape",
     "Mesh",
+    "ObservationError",
     "Obstacle",
     "OneStepGA",
     "ParameterError",
@@ -88,7 +93,9 @@ __all__ = [
     "Plane",
     "PlanningWorkerError",
     "Potential",
+    "Predictor",
     "PreviewctlError",
+    "RandomWalk",
     "Robot",
     "RobotLoadError",
     "RunResult",
@@ -96,9 +103,13 @@ __all__ = [
     "ScenarioError",
     "Scene",
     "SceneError",
+    "Sensing",
+    "SpeedChange",
     "Sphere",
     "Static",
+    "Stationary",
     "TrajectoryError",
+    "Turn",
     "UnknownNameError",
     "UnreachableTargetError",
     "Waypoints",

@@ -77,6 +77,12 @@ class MissingExtraError(PreviewctlError, ImportError):
     """An optional dependency is not installed; the message names it and the extra that installs it."""
 
 
+class ObservationError(PreviewctlError, ValueError):
+    """An observation of an obstacle that cannot be used: a position, rotation or velocity that is not finite or of
+    the wrong shape, a shape of an unknown type or missing for a new obstacle, or a time going back by more than the
+    timeout (``Controller.observe``, :mod:`previewctl.sensing`)."""
+
+
 class PlanningWorkerError(PreviewctlError, RuntimeError):
     """The planning worker beside the control loop crashed, failed or stopped answering; the loop goes on without
     it (the ``qp`` fallback) and reports this in ``Controller.last_info.worker_error``."""

@@ -4,7 +4,7 @@ Folders are layers. Every *unit* of the package (a subpackage such as ``robot``,
 such as ``path``) sits in one layer, and a module may import from its own layer and the layers before
 it, never from a later one (that would be reaching back up the flow)::
 
-    shared ground (errors, extras, types, files, validation) -> path -> robot, kinematics -> scene -> planar
+    shared ground (errors, extras, types, files, validation) -> path -> robot, kinematics -> scene -> sensing -> planar
     -> index -> search -> control -> sim -> viz -> bench -> cli (and the public API, __init__)
 
 ``scene`` comes after ``robot`` because its clearance measures the robot's links, and ``planar`` (pure
@@ -35,6 +35,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("path",),
     ("robot", "kinematics"),
     ("scene",),
+    ("sensing",),
     ("planar",),
     ("index",),
     ("search",),
@@ -277,7 +278,7 @@ def test_the_check_can_fail() -> None:
     found = violations([up, *loop, *hidden, law], ["search.ga", "widgets.thing", *package_modules()])
     assert len(found) == 5, "\n".join(found)
     assert found[0].startswith("widgets: no layer")
-    assert found[1].startswith("search/ga.py:1: search.ga (search, layer 6) imports control.preview (control, layer 7)")
+    assert found[1].startswith("search/ga.py:1: search.ga (search, layer 7) imports control.preview (control, layer 8)")
     assert found[2].startswith("folder cycle kinematics <-> robot:")
     assert found[3] == (
         "module cycle bench.scenes <-> bench.witness:\n"

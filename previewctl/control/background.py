@@ -18,6 +18,11 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
   valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
   QP execution still guards) and ``last_info`` says so (``plan_age``, ``fallback``, ``worker_error``).
 
+With observed obstacles (:mod:`previewctl.sensing`) the worker predicts from the same observations as the loop: each
+state posted carries the observed obstacles (their tracks: a predictor's mean, covariance and time, a few hundred
+bytes each), and the worker's :class:`ObservedSide` takes their states, or rebuilds its parts when the set of obstacles
+changed.
+
 Inline planning stays the default everywhere: it is deterministic, and a background run is not (it depends on how
 fast the worker is).
 """
@@ -41,7 +46,9 @@ from previewctl.errors import ConfigurationError
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.scene.shapes import Obstacle, Scene
 from previewctl.search.reachability import ReachMotion
+from previewctl.sensing.track import Track
 from previewctl.types import Array
 from previewctl.validation import Checked, Integer, Positive
 
@@ -140,6 +147,38 @@ class PlanningSide:
         return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion)
 
 
+class ObservedSide:
+    """The worker's side with observed obstacles: a :class:`PlanningSide` on the base scene and the loop's observed
+    obstacles, rebuilt when their set (or a shape) changes, their tracks holding the loop's states.
+
+    Args:
+        build: ``build(scene)``, the planning side on a scene.
+        scene: the obstacles that stay known (static, or not observed).
+    """
+
+    def __init__(self, build: Callable[[Scene], PlanningSide], scene: Scene) -> None:
+        self.build, self.base = build, scene.obstacles
+        self._key: tuple[tuple[str, object, bool], ...] = ()
+        self._tracks: dict[str, Track] = {}
+        self.side = build(scene)
+
+    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+        """Take the loop's observed obstacles: their tracks' states, and a rebuild if the set changed."""
+        key = tuple((o.name, o.shape, o.work_surface) for o in observed)
+        if key != self._key:
+            self._key = key
+            self._tracks = {o.name: o.motion for o in observed if isinstance(o.motion, Track)}
+            self.side = self.build(Scene(self.base + observed))
+            return
+        for o in observed:
+            if isinstance(o.motion, Track):
+                self._tracks[o.name].take(o.motion)
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """The planning side's result for the state ``(q, t)``."""
+        return self.side(q, t)
+
+
 def answer(side: PlanningSide, q: Array, t: float) -> PlanningResult | None:
     """The worker's default computation: ``side(q, t)``."""
     return side(q, t)
@@ -192,6 +231,7 @@ class BackgroundPlanning:
         self.worker: PlanningWorker | None = None
         self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
         self._posting = False
+        self._stale = False  # the answer to the state in flight was computed on an old set of obstacles
         self._arms: RemoteArms | None = None  # reach's stand-ins (reach())
         self._peaks: RemotePeaks | None = None
 
@@ -220,20 +260,29 @@ class BackgroundPlanning:
                        else self.options.plan_valid_periods * timing.replan_period)
         return Follower(planner.robot, planner.evaluator, timing)
 
+    def rescene(self) -> None:
+        """The set of observed obstacles changed: no result is in use, the answer to a state sent before is dropped,
+        and the next cycle posts its state (with the new set) at once."""
+        self.result, self._posting = None, True
+        self._stale = self.worker is not None and self.worker.busy
+
     def start(self, build: Callable[[], PlanningSide], compute: Compute = answer) -> None:
         """Start the worker, which runs ``compute(build(), q, t)`` for each state posted."""
         self.worker = PlanningWorker(build, compute, timeout=self.options.timeout, niceness=self.options.niceness)
 
-    def exchange(self, state: ControlState) -> PlanningStatus:
-        """Post the state at a new frame, take the worker's answer if one came, and say whether it is valid."""
+    def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
+        """Post the state at a new frame (with the observed obstacles, if any), take the worker's answer if one came,
+        and say whether it is valid."""
         worker = self.worker
         if worker is None:
             raise ConfigurationError("the planning worker was not started: start() starts it")
         self._posting = self._posting or state.frame_due
         if self._posting:
-            worker.post(state.q.copy(), state.t)
+            worker.post(state.q.copy(), state.t, observed)
         for result in worker.exchange():
-            if result is not None:
+            if self._stale:
+                self._stale = False
+            elif result is not None:
                 self._take(result, state)
         if self._posting and not worker.waiting:
             self._posting = False

@@ -26,6 +26,7 @@ import pinocchio as pin
 from previewctl.errors import PlanningWorkerError
 from previewctl.kinematics import Kinematics
 from previewctl.path import HandPath
+from previewctl.scene.shapes import Obstacle
 from previewctl.types import Array
 
 
@@ -149,8 +150,9 @@ class Planning(Protocol):
 
     name: str
 
-    def exchange(self, state: ControlState) -> PlanningStatus:
-        """Post ``state`` and take the worker's latest result, without waiting."""
+    def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
+        """Post ``state`` (and the observed obstacles, whose tracks the worker predicts from) and take the worker's
+        latest result, without waiting."""
         ...
 
     def close(self) -> None:
@@ -173,6 +175,9 @@ class ControlInfo:
         fallback: background planning: this cycle ran the ``qp`` law for want of a valid result (always
             ``False`` inline).
         worker_error: background planning: why the worker gives no result, else ``None``.
+        obstacles_added: observed obstacles added since the previous step (``Controller.observe``).
+        obstacles_dropped: observed obstacles forgotten or timed out since the previous step.
+        late_observations: late observations ignored so far (older than their obstacle's last), in total.
     """
 
     reference: Reference
@@ -183,6 +188,9 @@ class ControlInfo:
     plan_age: float | None = None
     fallback: bool = False
     worker_error: PlanningWorkerError | None = None
+    obstacles_added: tuple[str, ...] = ()
+    obstacles_dropped: tuple[str, ...] = ()
+    late_observations: int = 0
 
     @property
     def hand_error(self) -> float:

@@ -28,23 +28,35 @@ Planning beside the loop (``make_controller(..., planning="background")``,
 :mod:`previewctl.control.background`): the searches and the planner run in a worker process, :meth:`Controller.step`
 posts its state and uses the latest valid result without waiting, and runs the ``qp`` law when there is none.
 Close such a controller when done (``ctrl.close()``, or ``with make_controller(...) as ctrl:``) to end its worker.
+
+Observed obstacles (``make_controller(..., sensing=Sensing(...))``, :mod:`previewctl.sensing`): hand the controller
+observations with :meth:`Controller.observe` (and :meth:`~Controller.forget`, :meth:`~Controller.forget_all`); it
+predicts those obstacles from them and never reads their true motion. At each step the obstacles not observed for
+longer than the timeout are dropped; when the set of obstacles changes (or a shape), the law and the execution are
+rebuilt on the new scene (:class:`Observed`), which resets what they hold: the GA populations and tracked peaks of the
+imaginary arms, the planner's plan, and, with background planning, the result in use (the step runs the ``qp`` law
+until the worker, rebuilt on the same scene, answers).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from types import TracebackType
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from previewctl.control.base import Composition, ControlInfo, ControlLaw, ControlState, Execution, NullInput, Planning
 from previewctl.control.params import ControllerParams
 from previewctl.control.tracking import reference
-from previewctl.errors import ConfigurationError, ParameterError, PreviewctlError
+from previewctl.errors import ConfigurationError, ObservationError, ParameterError, PreviewctlError
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
+from previewctl.scene.shapes import Scene, Shape
+from previewctl.sensing.world import World
 from previewctl.types import Array
 from previewctl.validation import real_scalar
 
@@ -67,6 +79,23 @@ def positive_period(value: object, name: str) -> float:
     return period
 
 
+Rebuild = Callable[[Scene], tuple[ControlLaw, Execution]]
+"""``rebuild(scene)``: the law and the execution, composed as the factory composed them, on another scene."""
+
+
+@dataclass(frozen=True)
+class Observed:
+    """A controller's observed obstacles: the world and how the parts are rebuilt when its set of obstacles changes.
+
+    Attributes:
+        world: the observed obstacles (:class:`~previewctl.sensing.world.World`).
+        rebuild: the factory's rebuild of the law and the execution on a scene.
+    """
+
+    world: World
+    rebuild: Rebuild
+
+
 class Controller:
     """A control law, its execution, and the per-call bookkeeping: kinematics, camera frames, the last cycle.
 
@@ -82,6 +111,7 @@ class Controller:
         frame: camera frame period [s].
         dt: control period [s] assumed at the first call (later calls use the time elapsed).
         planning: the searches and the planner beside the loop, or ``None`` (inline, inside the law).
+        observed: the observed obstacles, or ``None`` (every obstacle's motion is known).
 
     Raises:
         ParameterError: ``frame`` or ``dt`` not a time > 0.
@@ -99,6 +129,7 @@ class Controller:
         frame: float = FRAME_PERIOD,
         dt: float = CONTROL_PERIOD,
         planning: Planning | None = None,
+        observed: Observed | None = None,
     ) -> None:
         self.law, self.execution, self.robot, self.path, self.params = law, execution, robot, path, params
         self._composition = composition
@@ -110,6 +141,7 @@ class Controller:
         self._last_t: float | None = None
         self._last_info: ControlInfo | None = None
         self.planning = planning
+        self.observed = observed
 
     @property
     def name(self) -> str:
@@ -130,6 +162,49 @@ class Controller:
         if self._last_info is None:
             raise PreviewctlError("no control cycle yet: call step(q, t) first")
         return self._last_info
+
+    def observe(self, name: str, position: ArrayLike, t: float, *, rotation: ArrayLike | None = None,
+                velocity: ArrayLike | None = None, shape: Shape | None = None) -> None:
+        """Take an observation of obstacle ``name``; it counts from the next :meth:`step`.
+
+        Args:
+            name: the obstacle; a name not observed yet adds it (``shape`` needed unless the scenario knows it).
+            position: where it was ``(3,)`` [m] (2 entries: planar, ``z = 0``).
+            t: when it was observed [s], on the path's clock (not when the observation was delivered). One older than
+                the obstacle's last is ignored and counted (``last_info.late_observations``).
+            rotation: its rotation matrix ``(3, 3)`` (default: the last one observed, the identity at first).
+            velocity: its measured velocity ``(3,)`` [m/s] (2 entries: planar), if any.
+            shape: its shape (:class:`~previewctl.scene.shapes.Sphere`, ``Box``, ``Cylinder``, ...).
+
+        Raises:
+            ObservationError: a bad value, named: not finite, a wrong shape, an unknown shape type, a new name without
+                a shape, a static obstacle of the scene, or ``t`` before the obstacle's last observation by more than
+                the timeout; or a controller made without ``sensing``.
+        """
+        self._world().observe(name, position, t, rotation=rotation, velocity=velocity, shape=shape)
+
+    def forget(self, name: str) -> None:
+        """Drop observed obstacle ``name`` now (e.g. a ROS marker's DELETE).
+
+        Raises:
+            UnknownNameError: ``name`` is not observed (the message lists those that are).
+            ObservationError: a controller made without ``sensing``.
+        """
+        self._world().forget(name)
+
+    def forget_all(self) -> None:
+        """Drop every observed obstacle now (e.g. a ROS marker's DELETEALL).
+
+        Raises:
+            ObservationError: a controller made without ``sensing``.
+        """
+        self._world().forget_all()
+
+    def _world(self) -> World:
+        if self.observed is None:
+            raise ObservationError(f"controller {self.name!r} observes nothing: make it with "
+                                   "make_controller(..., sensing=previewctl.Sensing()) or a scenario's [sensing] table")
+        return self.observed.world
 
     def frame_due(self, t: float) -> bool:
         """Whether a :meth:`step` at time ``t`` [s] would start a camera frame (nothing changes)."""
@@ -159,6 +234,12 @@ class Controller:
         now = real_scalar(t, "t", ParameterError)
         period = self._period(now, dt)
         frame = frame_index(now, self.frame)
+        changes = None
+        observed = self.observed
+        if observed is not None:
+            changes = observed.world.advance(now)
+            if changes.changed:
+                self.law, self.execution = observed.rebuild(observed.world.scene)
         kin = kinematics(self.robot, Q, reader=self._reader)
         state = ControlState(Q[0], now, kin, self.path, period, frame_due=frame != self._last_frame,
                              data=self._scratch)
@@ -166,7 +247,7 @@ class Controller:
             null = self.law.null_input(state)
             status = None
         else:  # never waits; without a valid result the qp law
-            status = self.planning.exchange(state)
+            status = self.planning.exchange(state, None if observed is None else observed.world.observed_obstacles())
             null = NullInput(np.zeros(self.robot.nv)) if status.fallback else self.law.null_input(state)
         ref = reference(self.robot, state, null.v, self.params)
         executed = self.execution(state, ref)
@@ -174,6 +255,9 @@ class Controller:
         if status is not None:
             self._last_info = replace(self._last_info, plan_age=status.plan_age, fallback=status.fallback,
                                       worker_error=status.worker_error)
+        if changes is not None:
+            self._last_info = replace(self._last_info, obstacles_added=changes.added,
+                                      obstacles_dropped=changes.dropped, late_observations=changes.late)
         self._last_frame, self._last_t = frame, now
         return executed.qdot
 

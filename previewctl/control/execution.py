@@ -174,6 +174,7 @@ class QPExecution:
                               support_mask(robot.model, self_clearance.joint_b))
         self._velocities = np.zeros((len(scene.obstacles), 3))
         self._velocity_time = np.nan
+        self._velocity_revisions = self.clearance.revisions()
 
     def dampers(self, q: Array, t: float) -> Dampers:
         """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]."""
@@ -201,13 +202,15 @@ class QPExecution:
 
     def _obstacle_velocities(self, t: float) -> Array:
         """Velocities [m/s] ``(O, 3)`` of the obstacles at time ``t`` [s]: the motions translate the obstacles (their
-        rotation is fixed), so every point of an obstacle has its obstacle's."""
-        if t != self._velocity_time:
+        rotation is fixed), so every point of an obstacle has its obstacle's; a predicted obstacle's are its
+        prediction's, read again after each new observation."""
+        revisions = self.clearance.revisions()
+        if t != self._velocity_time or revisions != self._velocity_revisions:
             for k, obstacle in enumerate(self.scene.obstacles):
                 if not isinstance(obstacle.motion, Static):
                     positions = obstacle.motion.positions(np.array([t, t + _OBSTACLE_DT]))
                     self._velocities[k] = (positions[1] - positions[0]) / _OBSTACLE_DT
-            self._velocity_time = t
+            self._velocity_time, self._velocity_revisions = t, revisions
         return self._velocities
 
     def bounds(self, q: Array, dt: float) -> tuple[Array, Array]:

@@ -37,16 +37,16 @@ from __future__ import annotations
 import copy
 import logging
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, fields
 from functools import partial
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from previewctl.control.background import BackgroundOptions, BackgroundPlanning, PlanningSide, answer
+from previewctl.control.background import BackgroundOptions, BackgroundPlanning, ObservedSide, PlanningSide, answer
 from previewctl.control.base import Composition, ControlLaw, Execution
-from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller, positive_period
+from previewctl.control.controller import CONTROL_PERIOD, FRAME_PERIOD, Controller, Observed, positive_period
 from previewctl.control.execution import PseudoInverseExecution, QPExecution
 from previewctl.control.imaginary import (
     ArgmaxArms,
@@ -80,6 +80,8 @@ from previewctl.scene.shapes import Scene
 from previewctl.search.ga import OneStepGA
 from previewctl.search.maps import redundancy_map
 from previewctl.search.planar import PlanarRedundancy
+from previewctl.sensing.options import Sensing
+from previewctl.sensing.world import World
 
 _log = logging.getLogger(__name__)
 
@@ -147,6 +149,7 @@ def make_controller(
     planning: str = "inline",
     background: BackgroundOptions | None = None,
     worker_compute: Compute | None = None,
+    sensing: Sensing | None = None,
 ) -> Controller:
     """A controller to step from your own loop: ``qdot = ctrl.step(q, t)``.
 
@@ -183,6 +186,10 @@ def make_controller(
             :class:`~previewctl.control.background.BackgroundOptions`\\ ``()``).
         worker_compute: ``compute(side, q, t)`` the worker runs per state instead of
             :func:`~previewctl.control.background.answer` (tests: a stand-in that blocks); picklable.
+        sensing: observe obstacles instead of reading their motion (:class:`~previewctl.sensing.options.Sensing`;
+            default: the scenario's ``[sensing]`` table, else none): the obstacles it names leave the scene until
+            first observed (``ctrl.observe``), and a change of the set rebuilds the law and the execution
+            (:mod:`previewctl.control.controller`).
 
     Raises:
         UnknownNameError: an unknown controller name (the message lists the valid ones).
@@ -206,6 +213,11 @@ def make_controller(
     scene = (base.scene or Scene()) if scene is None else scene
     index = base.index if index is None else index
     potential = base.potential if potential is None else potential
+    sensing = base.sensing if sensing is None else sensing
+    spatial = None if robot.task == "planar" or robot.planar is not None else robot.name  # as check_dimensions
+    world = None if sensing is None else World(scene, sensing, spatial=spatial)
+    if world is not None:
+        scene = world.scene  # without the observed obstacles until they are observed
     evaluator = Evaluator(robot, scene, index, potential)
     rng = _generator(base.seed if seed is None else seed)
     spec = ControllerSpec(base.name, base.params if params is None else params)
@@ -222,10 +234,29 @@ def make_controller(
         warnings.warn(f"controller {spec.name!r} does not use {'; '.join(parts.composition.ignored)}: ignored",
                       IgnoredSettingWarning, stacklevel=2)
     if beside is not None:
-        beside.start(partial(planning_side, spec, robot, path, scene, index, potential, worker_rng, frame,
-                             search_factory), worker_compute or answer)
+        build: Callable[[], Any] = partial(planning_side, spec, robot, path, scene, index, potential, worker_rng,
+                                           frame, search_factory)
+        if world is not None:  # the worker rebuilds its side on each new set of observed obstacles
+            build = partial(ObservedSide, partial(_side_on, spec, robot, path, index, potential, worker_rng, frame,
+                                                  search_factory), scene)
+        beside.start(build, worker_compute or answer)
+    observed = None if world is None else Observed(world, partial(_rebuild, spec, robot, index, potential, rng,
+                                                                  search_factory, beside))
     return Controller(parts.law, parts.execution, robot, path, spec.params, parts.composition,
-                      frame=frame, dt=base.dt if dt is None else dt, planning=beside)
+                      frame=frame, dt=base.dt if dt is None else dt, planning=beside, observed=observed)
+
+
+def _rebuild(spec: ControllerSpec, robot: Robot, index: IndexParams | None, potential: Potential | None,
+             rng: np.random.Generator, search_factory: SearchFactory | None, beside: BackgroundPlanning | None,
+             scene: Scene) -> tuple[ControlLaw, Execution]:
+    """The law and the execution of ``spec`` composed on ``scene`` (an observed world that changed): new searches
+    drawing on from ``rng``, a new planner; with background planning, no result in use until the worker answers a state
+    posted with the new scene (:meth:`~previewctl.control.background.BackgroundPlanning.rescene`)."""
+    parts = compose(spec, robot, scene, Evaluator(robot, scene, index, potential), rng, search_factory=search_factory,
+                    beside=beside)
+    if beside is not None:
+        beside.rescene()
+    return parts.law, parts.execution
 
 
 def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Scene, index: IndexParams | None,
@@ -242,6 +273,13 @@ def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Sce
     if isinstance(law, (Horizon, Oracle)):
         return PlanningSide(law.planner, robot, path, frame)
     raise _no_background(spec.name)
+
+
+def _side_on(spec: ControllerSpec, robot: Robot, path: HandPath, index: IndexParams | None,
+             potential: Potential | None, rng: np.random.Generator, frame: float,
+             search_factory: SearchFactory | None, scene: Scene) -> PlanningSide:
+    """:func:`planning_side` on ``scene``, the argument that changes last."""
+    return planning_side(spec, robot, path, scene, index, potential, rng, frame, search_factory)
 
 
 def _no_background(name: str) -> ParameterError:
@@ -264,6 +302,7 @@ class _Defaults:
     scene: Scene | None = None
     index: IndexParams | None = None
     potential: Potential | None = None
+    sensing: Sensing | None = None
 
 
 def _defaults(source: object, name: str | None) -> _Defaults:
@@ -276,6 +315,7 @@ def _defaults(source: object, name: str | None) -> _Defaults:
         return _Defaults(
             name or source.controller.name, source.controller.params, source.seed, source.timing.frame,
             source.timing.dt, source.robot, source.path, source.scene, source.index, source.potential,
+            getattr(source, "sensing", None),  # a scenario's [sensing] table (optional for a ScenarioLike)
         )
     raise ParameterError(
         f"make_controller takes a scenario or a controller name ({', '.join(CONTROLLER_NAMES)}), got {source!r}"

@@ -63,15 +63,21 @@ class PlanningWorker:
         self.pid = int(self._process.pid or 0)
         self.timeout = timeout
         self.error: PlanningWorkerError | None = None
-        self._slot: tuple[Array, float] | None = None
+        self._slot: tuple[Array, float, Any] | None = None
         # perf_counter [s] of the state in flight, None when the worker is idle; its start counts as one (it answers
         # None once its parts are built), so its first state is the freshest one then, not the first one posted
         self._sent_at: float | None = time.perf_counter()
         self._finalizer = weakref.finalize(self, _stop, self._process, self._conn)
 
-    def post(self, q: Array, t: float) -> None:
-        """Put the state ``(q, t)`` in the slot (replacing an unsent one); it goes out when the worker is idle."""
-        self._slot = (q, t)
+    def post(self, q: Array, t: float, news: Any = None) -> None:
+        """Put the state ``(q, t)`` in the slot (replacing an unsent one); it goes out when the worker is idle.
+        ``news`` (not ``None``): what the worker's side takes first, by ``side.sync(news)``."""
+        self._slot = (q, t, news)
+
+    @property
+    def busy(self) -> bool:
+        """Whether a state sent is still unanswered (the worker's start counts as one)."""
+        return self._sent_at is not None
 
     @property
     def waiting(self) -> bool:
@@ -145,8 +151,10 @@ def _serve(conn: Connection, build: Callable[[], Any], compute: Compute, nicenes
             return
         if message is None:
             return
-        q, t = message
+        q, t, news = message
         try:
+            if news is not None:
+                side.sync(news)
             answer = compute(side, q, t)
         except Exception as exc:  # reported to the loop, which falls back; the worker serves on
             answer = PlanningWorkerError(f"planning failed at t = {t:g} s: {type(exc).__name__}: {exc}")

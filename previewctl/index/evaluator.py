@@ -43,7 +43,7 @@ from previewctl.planar import kernels as planar_kernels
 from previewctl.planar.distance import planar_kernel
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
-from previewctl.scene.motion import Static
+from previewctl.scene.motion import Static, Uncertain, margin_at
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array
 from previewctl.validation import real_scalar, validate
@@ -168,7 +168,7 @@ class Evaluator:
         if self.method == "planar" and kernels is None:
             self.uses_planar_path(t)  # raises the explanatory error
         if kernels is not None and self._planar_arm is not None:
-            return self._planar(Q, self._planar_arm, kernels)
+            return self._planar(Q, t, self._planar_arm, kernels)
         return self._general(Q, t, max(float(exact_below), self.potential.influence_distance))
 
     def _general(self, Q: Array, t: float, exact_below: float) -> Evaluation:
@@ -195,14 +195,14 @@ class Evaluator:
         return self._finish(amsi, distances, kin.tip_position, nearest)
 
     def _planar(
-        self, Q: Array, arm: PlanarArm, kernels: list[planar_kernels.Kernel], chunk: int = 16384
+        self, Q: Array, t: float, arm: PlanarArm, kernels: list[planar_kernels.Kernel], chunk: int = 16384
     ) -> Evaluation:
         if Q.shape[0] <= chunk:
-            return self._planar_chunk(Q, arm, kernels)
-        parts = [self._planar_chunk(Q[s : s + chunk], arm, kernels) for s in range(0, Q.shape[0], chunk)]
+            return self._planar_chunk(Q, t, arm, kernels)
+        parts = [self._planar_chunk(Q[s : s + chunk], t, arm, kernels) for s in range(0, Q.shape[0], chunk)]
         return Evaluation(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Evaluation)})
 
-    def _planar_chunk(self, Q: Array, arm: PlanarArm, kernels: list[planar_kernels.Kernel]) -> Evaluation:
+    def _planar_chunk(self, Q: Array, t: float, arm: PlanarArm, kernels: list[planar_kernels.Kernel]) -> Evaluation:
         chain = arm.chain
         points, trig = arm.joint_origins(Q)
         _, amsi = arm.amsi(points)
@@ -212,6 +212,8 @@ class Evaluator:
             capsule_d = np.full((Q.shape[0], len(chain.link_index)), np.inf)
             for kernel, obstacle in zip(kernels, self.scene.obstacles, strict=True):
                 d = planar_kernels.apply(kernel, a, b, chain.link_radii)
+                if isinstance(obstacle.motion, Uncertain):  # a predicted obstacle, inflated by its margin
+                    d -= margin_at(obstacle.motion, t)
                 if obstacle.work_surface:
                     d[:, self._hand_slots] = np.inf  # the hand may touch the object it works on
                 np.minimum(capsule_d, d, out=capsule_d)

@@ -7,6 +7,11 @@ with it, and each robot geometry in a sphere ``(c_g, r_g)`` and a capsule ``[a_g
 ``|c_g - c_o| - r_g - r_o`` for all pairs, then, for the pairs that bound leaves, by the larger of it and
 ``dist(c_o, [a_g, b_g]) - ρ_g - r_o``. Coal computes only the pairs still bounded below the distance that matters; the
 others keep their bounds. An obstacle without a finite cover (a half-space, a plane) is never screened out.
+
+An obstacle whose motion is a prediction (:class:`~previewctl.scene.motion.Uncertain`, an observed obstacle of
+:mod:`previewctl.sensing`) is inflated by its margin ``m(t)`` [m] at the scene's time: every distance of its pairs is
+the distance to its shape minus ``m(t)`` (its bounds too, so the screen stays exact below ``within``), and its nearest
+points lie on the inflated surface.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ import pinocchio as pin
 from previewctl.errors import SceneError
 from previewctl.robot.geometry import enclosing_capsule
 from previewctl.robot.model import Robot
-from previewctl.scene.motion import Static, planar_fields
+from previewctl.scene.motion import Static, Uncertain, margin_at, planar_fields
 from previewctl.scene.self_clearance import BOUND_SLACK, SelfClearance, SelfWitnesses, cover_points
 from previewctl.scene.shapes import Scene
 from previewctl.scene.solid import SolidMesh
@@ -136,7 +141,11 @@ class Clearance:
         self._pair_reach = np.array([c[1] for c in robot_covers])[self._pair_geometry] + obstacle_radius
         self._pair_ends = np.array([c[2] for c in robot_covers]).reshape(-1, 2, 3)[self._pair_geometry]
         self._pair_capsule_reach = np.array([c[3] for c in robot_covers])[self._pair_geometry] + obstacle_radius
+        self._uncertain = [k for k, o in enumerate(scene.obstacles) if isinstance(o.motion, Uncertain)]
+        self._pair_margin = np.zeros(len(pair_links))  # [m] each pair's obstacle inflation at the scene's time
+        self._revisions = self.revisions()
         self._obstacle_centres = self._centres_at(0.0)
+        self._margins_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
         for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
@@ -149,16 +158,30 @@ class Clearance:
         self._time = 0.0
         self.self_clearance = SelfClearance(robot)
 
+    def revisions(self) -> tuple[int, ...]:
+        """The revisions of the predicted obstacles' motions (:class:`~previewctl.scene.motion.Uncertain`): a
+        placement read before one of them changed is stale."""
+        obstacles = self.scene.obstacles
+        return tuple(obstacles[k].motion.revision for k in self._uncertain)  # type: ignore[attr-defined]
+
     def set_time(self, t: float) -> None:
-        """Move the obstacles to their placements at time ``t`` [s] (static ones never move; nothing to do if
-        already there)."""
-        if float(t) == self._time:
+        """Move the obstacles to their placements at time ``t`` [s] and inflate the predicted ones by their margins
+        (static ones never move; nothing to do if already there and no prediction changed since)."""
+        revisions = self.revisions()
+        if float(t) == self._time and revisions == self._revisions:
             return
-        self._time = float(t)
+        self._time, self._revisions = float(t), revisions
         for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
             if not isinstance(obstacle.motion, Static):
                 self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
         self._obstacle_centres = self._centres_at(t)
+        self._margins_at(t)
+
+    def _margins_at(self, t: float) -> None:
+        """Each pair's inflation [m] at time ``t`` [s]: its obstacle's margin (0 but for predicted obstacles)."""
+        if self._uncertain:
+            margins = np.array([margin_at(o.motion, t) for o in self.scene.obstacles]).reshape(-1)
+            self._pair_margin = margins[self.pair_obstacles]
 
     def _centres_at(self, t: float) -> Array:
         """``(O, 3)`` the obstacles' cover centres [m] in the world at time ``t`` [s]."""
@@ -177,6 +200,8 @@ class Clearance:
         distances = [result.min_distance for result in self._results]
         for pair, _, _, _ in self._solid_pairs:
             distances[pair] = self._solid(pair, distances[pair])
+        if self._uncertain:
+            return [d - m for d, m in zip(distances, self._pair_margin.tolist(), strict=True)]
         return distances
 
     def _solid(self, pair: int, distance: float) -> float:
@@ -203,13 +228,14 @@ class Clearance:
         centres = (held @ self._geometry_centres[self._pair_geometry, :, None])[..., :3, 0]
         gap = centres - self._obstacle_centres[self.pair_obstacles]
         distances = np.sqrt(np.einsum("bpk,bpk->bp", gap, gap)) - self._pair_reach
-        rows, pairs = np.nonzero(distances < within)
+        limit = within + self._pair_margin  # (P,) [m]: below it the distance to the shape is exact
+        rows, pairs = np.nonzero(distances < limit)
         if rows.size:
             frames = held[rows, pairs]
             ends = self._pair_ends[pairs] @ frames[:, :3, :3].transpose(0, 2, 1) + frames[:, None, :3, 3]
             capsule = _segment_distance(ends, self._obstacle_centres[self.pair_obstacles[pairs]])
             distances[rows, pairs] = np.maximum(distances[rows, pairs], capsule - self._pair_capsule_reach[pairs])
-            keep = distances[rows, pairs] < within
+            keep = distances[rows, pairs] < limit[pairs]
             rows, pairs = rows[keep], pairs[keep]
         model, own, geometry, data, solids = self.robot.model, self._own, self.geometry, self.data, self._solid_of
         found, placed = [], -1
@@ -220,7 +246,7 @@ class Clearance:
             distance = pin.computeDistance(geometry, data, k).min_distance
             found.append(self._solid(k, distance) if k in solids else distance)
         distances[rows, pairs] = found
-        return distances
+        return distances - self._pair_margin if self._uncertain else distances
 
     def witnesses(self, data: pin.Data, within: float = np.inf) -> tuple[IntArray, Witnesses]:
         """The pairs closer than ``within`` [m] for the joint placements in ``data``: their indices ``(R,)``
@@ -229,7 +255,10 @@ class Clearance:
         near = np.flatnonzero(distance < within)
         results = [self._results[k] for k in near]
         points = np.array([(r.getNearestPoint1(), r.getNearestPoint2(), r.normal) for r in results]).reshape(-1, 3, 3)
-        return near, Witnesses(distance[near], points[:, 0], points[:, 1], points[:, 2])
+        obstacle_point = points[:, 1]
+        if self._uncertain:  # on the inflated surface
+            obstacle_point = obstacle_point - self._pair_margin[near, None] * points[:, 2]
+        return near, Witnesses(distance[near], points[:, 0], obstacle_point, points[:, 2])
 
     def self_witnesses(self, data: pin.Data, within: float = np.inf) -> SelfWitnesses:
         """The self pairs closer than ``within`` [m] for the joint placements in ``data`` (``data.oMi``, e.g. after

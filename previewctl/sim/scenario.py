@@ -73,6 +73,7 @@ from previewctl.scene.file import scene_from_tables
 from previewctl.scene.motion import rpy_to_matrix
 from previewctl.scene.shapes import Scene
 from previewctl.search.explore import explore
+from previewctl.sensing.options import Sensing
 from previewctl.sim.schema import FIGURES, OutputSpec, RobotSpec, ScenarioFile, Timing, Verdict
 from previewctl.types import Array
 from previewctl.validation import show, validate
@@ -109,6 +110,7 @@ class Scenario:
         outputs: figures and GIF.
         source: the file it was read from, or ``None``.
         description: free text.
+        sensing: the observed obstacles (the ``[sensing]`` table), or ``None``: every motion is known.
     """
 
     name: str
@@ -126,6 +128,7 @@ class Scenario:
     outputs: OutputSpec = field(default_factory=OutputSpec)
     source: Path | None = None
     description: str = ""
+    sensing: Sensing | None = None
 
     def exact_robot(self) -> Robot:
         """The same robot with exact (mesh) collision geometry; ``self.robot`` if it already has it."""
@@ -225,7 +228,14 @@ def _build(doc: ScenarioFile, base: Path, source: str | os.PathLike[str] | None)
         outputs=OutputSpec(**doc.output.model_dump()),
         source=Path(source) if source is not None else None,
         description=doc.description,
+        sensing=None if doc.sensing is None else _sensing(doc.sensing),
     )
+
+
+def _sensing(table: Any) -> Sensing:
+    """The ``[sensing]`` table's :class:`~previewctl.sensing.options.Sensing`."""
+    with _section("[sensing] "):
+        return Sensing(**table.model_dump())
 
 
 def _robot_spec(table: Any, base: Path) -> RobotSpec:

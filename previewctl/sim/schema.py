@@ -19,6 +19,7 @@ dataclass fields by :func:`previewctl.validation.table`, so the file and the API
 ``[potential]``       :class:`~previewctl.index.potential.Potential`
 ``[verdict]``         :class:`Verdict`
 ``[output]``          :class:`OutputSpec`
+``[sensing]``         :class:`~previewctl.sensing.options.Sensing` (observed obstacles; ``predictor`` a name)
 ====================  =====================================================================
 
 How to add a key:
@@ -54,6 +55,7 @@ from previewctl.index.load import load_robot
 from previewctl.index.potential import Potential
 from previewctl.robot.model import Geometry, Robot, Task
 from previewctl.scene.schema import Angles, ObstacleTable
+from previewctl.sensing.options import PredictorName, Sensing
 from previewctl.validation import Checked, Finite, Flag, Integer, Positive, Section, Text, invalid, show, table
 
 Figure = Literal["strobe", "S", "clearance", "error"]
@@ -213,6 +215,8 @@ IndexTable: Any = table("index", IndexParams, exclude=("rank_tolerance",))
 PotentialTable: Any = table("potential", Potential)
 VerdictTable: Any = table("verdict", Verdict)
 OutputTable: Any = table("output", OutputSpec)
+SensingTable: Any = table("sensing", Sensing, exclude=("predictor",), predictor=(PredictorName, "kalman"))
+"""``[sensing]``: :class:`~previewctl.sensing.options.Sensing`, its ``predictor`` one of the built-in names."""
 
 
 class ScenarioFile(Section):
@@ -230,3 +234,4 @@ class ScenarioFile(Section):
     potential: PotentialTable = PotentialTable()
     verdict: VerdictTable = VerdictTable()
     output: OutputTable = OutputTable()
+    sensing: SensingTable | None = None
