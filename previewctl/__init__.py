@@ -49,7 +49,7 @@ from previewctl.kinematics import integrate
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.scene.file import load_scene
-from previewctl.scene.motion import ConstantVelocity, Periodic, Static, Waypoints
+from previewctl.scene.motion import ConstantVelocity, Periodic, RandomWalk, SpeedChange, Static, Turn, Waypoints
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Obstacle, Plane, Scene, Sphere
 from previewctl.search.explore import Landscape, explore
 from previewctl.search.ga import OneStepGA
@@ -95,6 +95,7 @@ __all__ = [
     "Potential",
     "Predictor",
     "PreviewctlError",
+    "RandomWalk",
     "Robot",
     "RobotLoadError",
     "RunResult",
@@ -103,10 +104,12 @@ __all__ = [
     "Scene",
     "SceneError",
     "Sensing",
+    "SpeedChange",
     "Sphere",
     "Static",
     "Stationary",
     "TrajectoryError",
+    "Turn",
     "UnknownNameError",
     "UnreachableTargetError",
     "Waypoints",

@@ -21,7 +21,10 @@ from previewctl.scene.motion import (
     ConstantVelocity,
     Motion,
     Periodic,
+    RandomWalk,
+    SpeedChange,
     Static,
+    Turn,
     Waypoints,
     rpy_to_matrix,
 )
@@ -39,6 +42,9 @@ def all_motions() -> list[Motion]:
         Waypoints([0.0, 1.0, 3.0], [[0, 0, 0], [1, 0, 0], [1, 2, 0]], rotation),
         Waypoints([1.0, 2.0, 4.0], [[0, 0, 0], [1, 0, 0], [1, 2, 0]], rotation, loop=True),
         Periodic([0.4, 0.0, 0.3], [0.0, 0.1, 0.05], 4.0, 0.3, rotation),
+        Turn([0.0, 1.0, 0.0], [0.3, 0.0, 0.1], 1.5, 2.0, 1.0, [0.0, 0.0, 1.0], rotation),
+        SpeedChange([0.0, 1.0, 0.0], [0.3, 0.0, 0.1], 1.0, 0.0, 0.5, rotation),
+        RandomWalk([0.1, 0.0, 0.0], [0.0, 0.0, 0.0], [0.5, 0.5, 0.2], 0.2, 7, duration=10.0, rotation=rotation),
     ]
 
 
@@ -129,7 +135,7 @@ def test_positions_equals_placement(motion: Motion) -> None:
 @settings(max_examples=40, deadline=None)
 @given(
     times=arrays(np.float64, st.integers(0, 15), elements=st.floats(-50.0, 50.0)),
-    index=st.integers(0, 4),
+    index=st.integers(0, len(all_motions()) - 1),
 )
 def test_vectorised_equals_scalar_calls(times: NDArray[np.float64], index: int) -> None:
     motion = all_motions()[index]
@@ -343,6 +349,11 @@ def test_from_dict_rpy_for_every_type(kind: str) -> None:
         "constant_velocity": {"position": [0, 0, 0], "velocity": [1, 0, 0]},
         "waypoints": {"times": [0, 1], "positions": [[0, 0, 0], [1, 0, 0]]},
         "periodic": {"center": [0, 0, 0], "amplitude": [1, 0, 0], "period": 1.0},
+        "turn": {"position": [0, 0, 0], "velocity": [1, 0, 0], "turn_time": 1.0, "angle": 1.0},
+        "stop": {"position": [0, 0, 0], "velocity": [1, 0, 0], "stop_time": 1.0},
+        "speed_change": {"position": [0, 0, 0], "velocity": [1, 0, 0], "change_time": 1.0, "factor": 2.0},
+        "random_walk": {"position": [0, 0, 0], "center": [0, 0, 0], "half_size": [1, 1, 1], "speed": 0.1,
+                        "seed": 0},
     }
     rpy = [0.1, 0.2, 0.3]
     motion = motion_from_dict({"type": kind, **specs[kind], "rpy": rpy}, WHERE)
@@ -468,3 +479,147 @@ def test_from_dict_errors(spec: object, fragments: list[str]) -> None:
     message = str(info.value)
     for fragment in fragments:
         assert fragment in message, message
+
+
+# ----------------------------------------------------------------------------- motions a predictor does not know
+
+
+def test_turn_at_once_closed_form() -> None:
+    motion = Turn([1.0, 2.0], [0.5, 0.0], turn_time=2.0, angle=np.pi / 2)
+    np.testing.assert_allclose(motion.positions(np.array([-1.0, 1.0, 2.0, 4.0])),
+                               [[1.0, 2.0, 0.0], [1.5, 2.0, 0.0], [2.0, 2.0, 0.0], [2.0, 3.0, 0.0]], atol=1e-12)
+    assert motion.duration == 0.0
+
+
+def test_turn_at_a_rate_is_a_circular_arc() -> None:
+    # a quarter turn at pi/2 rad/s of a 1 m/s velocity: an arc of radius 1/(pi/2) m, then straight up
+    motion = Turn([0.0, 0.0], [1.0, 0.0], turn_time=1.0, angle=np.pi / 2, rate=np.pi / 2)
+    radius = 2.0 / np.pi
+    assert motion.duration == pytest.approx(1.0)
+    arc = motion.positions(1.0 + np.linspace(0.0, 1.0, 11))
+    centre = np.array([1.0, radius, 0.0])
+    np.testing.assert_allclose(np.linalg.norm(arc - centre, axis=1), radius, atol=1e-12)
+    np.testing.assert_allclose(motion.placement(3.0)[0], [1.0 + radius, radius + 1.0, 0.0], atol=1e-12)
+
+
+def test_turn_keeps_the_velocity_along_its_axis_and_turns_clockwise_for_a_negative_angle() -> None:
+    motion = Turn([0.0, 0.0, 0.0], [1.0, 0.0, 0.5], turn_time=0.0, angle=-np.pi, rate=np.pi)
+    # half a turn about z in 1 s: x back to 0 on the arc's far side (y < 0), z climbs at 0.5 m/s throughout
+    np.testing.assert_allclose(motion.placement(1.0)[0], [0.0, -2.0 / np.pi, 0.5], atol=1e-12)
+    np.testing.assert_allclose(motion.placement(2.0)[0], [-1.0, -2.0 / np.pi, 1.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("rate", [None, 0.8])
+def test_turn_velocity_matches_finite_differences(rate: float | None) -> None:
+    motion = Turn([0.0, 0.0, 0.0], [0.3, 0.1, 0.2], turn_time=1.0, angle=2.0, rate=rate, axis=[1.0, 1.0, 2.0])
+    times = np.linspace(0.0, 6.0, 6001)
+    speeds = np.linalg.norm(np.diff(motion.positions(times), axis=0), axis=1) / np.diff(times)
+    np.testing.assert_allclose(speeds, np.linalg.norm([0.3, 0.1, 0.2]), rtol=1e-6)  # a turn keeps the speed
+
+
+def test_speed_change_closed_form_stop_and_speed_up() -> None:
+    stop = SpeedChange([0.0, 0.0], [1.0, 0.0], change_time=1.0, factor=0.0, ramp_time=2.0)
+    np.testing.assert_allclose(stop.positions(np.array([1.0, 2.0, 3.0, 10.0]))[:, 0], [1.0, 1.75, 2.0, 2.0])
+    jump = SpeedChange([0.0, 0.0], [0.0, 0.2], change_time=2.0, factor=3.0)
+    np.testing.assert_allclose(jump.positions(np.array([2.0, 4.0]))[:, 1], [0.4, 0.4 + 1.2])
+
+
+def test_speed_change_is_continuous_with_a_ramp() -> None:
+    motion = SpeedChange([0.0, 0.0], [1.0, 1.0], change_time=1.0, factor=2.5, ramp_time=0.5)
+    times = np.linspace(0.0, 3.0, 30001)
+    velocity = np.diff(motion.positions(times)[:, 0]) / np.diff(times)
+    assert np.abs(np.diff(velocity)).max() < 1e-3  # the speed changes smoothly, not by a jump
+    np.testing.assert_allclose(velocity[[0, -1]], [1.0, 2.5], rtol=1e-6)
+
+
+def test_random_walk_stays_in_its_box_and_is_smooth() -> None:
+    motion = RandomWalk([0.3, 0.0], [0.2, 0.1], [0.4, 0.3], speed=0.5, seed=3, velocity=[0.2, 0.0], duration=30.0)
+    times = np.linspace(-1.0, 40.0, 41001)
+    path = motion.positions(times)
+    np.testing.assert_allclose(path[0], [0.3, 0.0, 0.0])
+    assert np.all(np.abs(path[:, :2] - [0.2, 0.1]) <= [0.4, 0.3])
+    np.testing.assert_array_equal(path[:, 2], 0.0)
+    walking = (times >= 0.0) & (times <= 30.0)  # it holds its start before and its end after
+    velocity = np.diff(path[walking], axis=0) / 1e-3
+    assert np.abs(velocity).max() < 5 * 0.5  # no jump: a few standard deviations of the walk's speed
+    acceleration = np.diff(velocity, axis=0) / 1e-3
+    assert np.abs(acceleration).max() < 100.0  # velocity continuous (a jump would give ~ 1e3 m/s^2)
+    assert np.ptp(path[:, 0]) > 0.4  # it walks
+    np.testing.assert_array_equal(path[times >= 30.0], np.tile(path[-1], ((times >= 30.0).sum(), 1)))
+
+
+def test_random_walk_starts_with_its_velocity() -> None:
+    motion = RandomWalk([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0], speed=0.3, seed=0,
+                        velocity=[0.2, -0.1, 0.05], step=0.01)
+    dt = 1e-6
+    np.testing.assert_allclose((motion.placement(dt)[0] - motion.placement(0.0)[0]) / dt, [0.2, -0.1, 0.05],
+                               rtol=1e-3)
+
+
+def test_random_walk_replays_for_a_seed() -> None:
+    times = np.linspace(0.0, 20.0, 101)
+    walks = [RandomWalk([0.0, 0.0], [0.0, 0.0], [0.5, 0.5], 0.2, seed).positions(times) for seed in (4, 4, 5)]
+    np.testing.assert_array_equal(walks[0], walks[1])
+    assert np.abs(walks[0] - walks[2]).max() > 0.05
+
+
+@pytest.mark.parametrize(
+    ("build", "fragments"),
+    [
+        (lambda: Turn([0, 0], [1, 0], -1.0, 1.0), ["turn_time must be >= 0 [s]", "-1.0"]),
+        (lambda: Turn([0, 0], [1, 0], 1.0, np.nan), ["angle must be finite", "nan"]),
+        (lambda: Turn([0, 0], [1, 0], 1.0, 1.0, rate=0.0), ["rate must be > 0 [rad/s]", "0.0"]),
+        (lambda: Turn([0, 0], [1, 0], 1.0, 1.0, axis=[0, 0, 0]), ["axis must be 3 finite numbers", "not all 0"]),
+        (lambda: Turn([0, 0], [1, 0], 1.0, 1.0, axis=[0, 1]), ["axis must be 3 finite numbers", "[0., 1.]"]),
+        (lambda: SpeedChange([0, 0], [1, 0], 1.0, -2.0), ["factor must be >= 0", "-2.0"]),
+        (lambda: SpeedChange([0, 0], [1, 0], 1.0, 1.0, ramp_time=-1), ["ramp_time must be >= 0 [s]", "-1"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, -0.1], 0.1, 0), ["half_size must be >= 0", "-0.1"]),
+        (lambda: RandomWalk([0.6, 0], [0, 0], [0.5, 0.5], 0.1, 0),
+         ["position [0.6,", "strictly inside", "half_size [0.5, 0.5"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, 0.5], -0.1, 0), ["speed must be >= 0 [m/s]", "-0.1"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, 0.5], 0.1, -3), ["seed must be an integer >= 0", "-3"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, 0.5], 0.1, 1.5), ["seed must be an integer >= 0", "1.5"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, 0.5], 0.1, 0, step=0.0), ["step must be > 0 [s]", "0.0"]),
+        (lambda: RandomWalk([0, 0], [0, 0], [0.5, 0.5], 0.1, 0, duration=1e6, step=1e-3),
+         ["more than 1,000,000", "valid: a longer step"]),
+    ],
+)
+def test_bad_surprise_motions_raise_scene_error(build: object, fragments: list[str]) -> None:
+    with pytest.raises(SceneError) as info:
+        build()  # type: ignore[operator]
+    for fragment in fragments:
+        assert fragment in str(info.value), str(info.value)
+
+
+def test_from_dict_surprise_motions() -> None:
+    stop = motion_from_dict({"type": "stop", "position": [0, 0], "velocity": [1, 0], "stop_time": 1.0,
+                             "braking_time": 2.0}, WHERE)
+    np.testing.assert_allclose(stop.placement(5.0)[0], [2.0, 0.0, 0.0])
+    turn = motion_from_dict({"type": "turn", "position": [0, 0], "velocity": [1, 0], "turn_time": 1.0,
+                             "angle": np.pi / 2}, WHERE)
+    np.testing.assert_allclose(turn.placement(2.0)[0], [1.0, 1.0, 0.0], atol=1e-12)
+    walk = {"type": "random_walk", "position": [0, 0], "center": [0, 0], "half_size": [1, 1], "speed": 0.2,
+            "seed": 9}
+    times = np.linspace(0.0, 10.0, 51)
+    np.testing.assert_array_equal(motion_from_dict(walk, WHERE).positions(times),
+                                  RandomWalk([0, 0], [0, 0], [1, 1], 0.2, 9).positions(times))
+
+
+@pytest.mark.parametrize(
+    ("spec", "fragments"),
+    [
+        ({"type": "stop", "position": [0, 0], "velocity": [1, 0], "stop_time": -1},
+         [f"{WHERE}.stop_time must be >= 0", "-1"]),
+        ({"type": "turn", "position": [0, 0], "velocity": [1, 0], "turn_time": 1, "angle": 1, "rate": 0},
+         [f"{WHERE}.rate must be > 0", "0"]),
+        ({"type": "random_walk", "position": [0, 0], "center": [0, 0], "half_size": [1, 1], "speed": 0.2,
+          "seed": "a"}, [f"{WHERE}.seed", "'a'"]),
+        ({"type": "random_walk", "position": [2, 0], "center": [0, 0], "half_size": [1, 1], "speed": 0.2,
+          "seed": 1}, [f"{WHERE}.position [2.,", "must be strictly inside"]),
+    ],
+)
+def test_from_dict_surprise_errors(spec: object, fragments: list[str]) -> None:
+    with pytest.raises(SceneError) as info:
+        motion_from_dict(spec, WHERE)
+    for fragment in fragments:
+        assert fragment in str(info.value), str(info.value)

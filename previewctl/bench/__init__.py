@@ -7,4 +7,5 @@
 * :mod:`~previewctl.bench.robots`: a sweep's robots, a name or a URDF file: recorded, labelled, loaded, profiled.
 * :mod:`~previewctl.bench.scenes`: the scene generators (:func:`~previewctl.bench.scenes.generate`).
 * :mod:`~previewctl.bench.witness`: the solvability witness a scene must pass.
+* :mod:`~previewctl.bench.pink`: pink's differential IK as a baseline (``--controller pink,pink-g100``).
 """

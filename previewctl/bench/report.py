@@ -12,8 +12,9 @@ from pathlib import Path
 from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
+from previewctl.bench.pink import BARRIER_GAINS
 from previewctl.bench.provenance import UNKNOWN, now
-from previewctl.bench.runs import INLINE, record_key
+from previewctl.bench.runs import INLINE, KNOWN, OBSERVED_SENSING, record_key
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
@@ -37,11 +38,22 @@ def _latency(record: dict[str, Any]) -> str:
     return str(record.get("latency", INLINE))
 
 
+def _sensing(record: dict[str, Any]) -> str:
+    """A run's sensing (a line written before runs had one ran with perfect foresight)."""
+    return str(record.get("sensing", KNOWN))
+
+
+def _tagged(controller: str, latency: str, sensing: str) -> str:
+    """The row label of ``controller`` run with ``latency`` and ``sensing``: e.g. ``multi``, ``multi (measured
+    latency)``, ``multi (observed)``."""
+    tags = ([] if latency == INLINE else [f"{latency} latency"]) + ([] if sensing == KNOWN else [sensing])
+    return f"{controller} ({', '.join(tags)})" if tags else controller
+
+
 def _label(record: dict[str, Any]) -> str:
-    """A run's row: its controller, e.g. ``multi``, or ``multi (measured latency)`` when its plans took effect
-    after their measured compute time."""
-    latency = _latency(record)
-    return record["controller"] if latency == INLINE else f"{record['controller']} ({latency} latency)"
+    """A run's row: its controller, tagged when its plans took effect after their measured compute time or when it
+    observed the obstacles (:func:`_tagged`)."""
+    return _tagged(record["controller"], _latency(record), _sensing(record))
 
 
 def _order(cell: tuple[str, str]) -> tuple[int, str, int, str]:
@@ -102,6 +114,11 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
             command = f"previewctl bench --robot {robot} --scenes {scenes[-1] + 1} --scene-seed {scene_seed}"
             latencies = sorted({_latency(r) for r in mine})
             command += f" --latency {','.join(latencies)}" if latencies != [INLINE] else ""
+            command += f" --controller {','.join(controllers)}" if set(controllers) & set(BARRIER_GAINS) else ""
+            sensings = sorted({_sensing(r) for r in mine})
+            command += f" --sensing {','.join(sensings)}" if sensings != [KNOWN] else ""
+            motions = sorted({r.get("motions", "constant") for r in mine})
+            command += f" --motions {','.join(motions)}" if motions != ["constant"] else ""
             lines.append(f"| {robot} | {_span(scenes)} | {scene_seed} | {_span([r['seed'] for r in mine])} | "
                          f"{', '.join(controllers)} | {', '.join(executions)} | `{command}` |")
     return [*lines, ""]
@@ -146,25 +163,98 @@ def _plan_costs(groups: dict[str, dict[tuple[str, str], list[dict[str, Any]]]]) 
     return [*lines, ""] if rows else []
 
 
-def _against_baseline(records: list[dict[str, Any]]) -> list[str]:
-    """Scenes where a controller that looks ahead succeeds (< 1 mm) and ``qp`` fails, and the reverse, per robot and
-    execution of the controller (``qp`` is always a QP, and the same run for every seed)."""
+def _against_baseline(records: list[dict[str, Any]], baseline: str = BASELINE,
+                      contenders: tuple[str, ...] = (*LOOKING_AHEAD, *BARRIER_GAINS)) -> list[str]:
+    """Scenes where a contender (by default a controller that looks ahead, or a pink baseline) succeeds (< 1 mm) and
+    ``baseline`` fails, and the reverse, per robot and execution of the contender (``qp`` and the pink baselines are
+    always a QP, and the same run for every seed)."""
     outcome = {(r["robot"], r["scene"], r["seed"], _label(r), r["execution"]): r for r in records}
-    lines = [f"## Preview against the `{BASELINE}` baseline (success < 1 mm, same scene; the baseline is always "
+    pink = any(r["controller"] in contenders and r["controller"] in BARRIER_GAINS for r in records)
+    what = "Preview and pink" if pink else "Preview"
+    lines = [f"## {what} against the `{baseline}` baseline (success < 1 mm, same scene; the baseline is always "
              "executed by the QP and draws no random numbers: its seed-0 run stands for every seed)", ""]
-    if not any(r["controller"] == BASELINE for r in records):
-        return [*lines, f"No `{BASELINE}` runs in these results: nothing to compare with.", ""]
-    lines += ["| robot | preview | execution | beats qp on (scene:seed) | loses to qp on (scene:seed) |",
-              "|---|---|---|---|---|"]
+    if not any(r["controller"] == baseline for r in records):
+        return [*lines, f"No `{baseline}` runs in these results: nothing to compare with.", ""]
+    lines += [f"| robot | controller | execution | beats {baseline} on (scene:seed) | loses to {baseline} on "
+              "(scene:seed) |", "|---|---|---|---|---|"]
     pairs: dict[tuple[str, str, str], tuple[list[str], list[str]]] = defaultdict(lambda: ([], []))
     for (robot, scene, seed, controller, execution), r in sorted(outcome.items()):
-        base = outcome.get((robot, scene, control_params.run_seed(BASELINE, seed), BASELINE, "qp"))
-        if r["controller"] not in LOOKING_AHEAD or base is None or r["success_1mm"] == base["success_1mm"]:
+        base = outcome.get((robot, scene, control_params.run_seed(baseline, seed),
+                            _tagged(baseline, INLINE, _sensing(r)), "qp"))  # the baseline fed what the row was fed
+        if r["controller"] not in contenders or base is None or r["success_1mm"] == base["success_1mm"]:
             continue
         pairs[(robot, controller, execution)][0 if r["success_1mm"] else 1].append(f"{scene}:{seed}")
     for (robot, controller, execution), (wins, losses) in sorted(pairs.items()):
         lines.append(f"| {robot} | {controller} | {execution} | {', '.join(wins) or '-'} | "
                      f"{', '.join(losses) or '-'} |")
+    return [*lines, ""]
+
+
+def _pink_note(records: list[dict[str, Any]]) -> list[str]:
+    """When pink baselines ran: what they are and model, their gains, and their cycle time beside previewctl's
+    (the medians over the runs of each run's median control cycle [ms], per robot)."""
+    names = [name for name in BARRIER_GAINS if any(r["controller"] == name for r in records)]
+    if not names:
+        return []
+    gains = ", ".join(f"`{name}` γ = {BARRIER_GAINS[name]:g} 1/s" for name in names)
+    lines = ["## The pink baselines", "",
+             f"Rows {', '.join(f'`{name}`' for name in names)} are [pink](https://github.com/stephane-caron/pink)'s "
+             "differential IK (`solve_ik`) as its examples use it, stepped by the same simulator and checked by the "
+             "same exact check: a position-only `FrameTask` on the hand (target `r_d(t + dt)`: pink's tasks take no "
+             "velocity feed-forward), a small `PostureTask`, pink's default configuration and velocity limits, and a "
+             "`SelfCollisionBarrier` over the guarded link-obstacle pairs and the arm's self pairs, DAQP as the "
+             "solver. The barrier keeps each pair's distance above `d_min` (the QP's safety distance) by "
+             "`ḣ ≥ −γ h`: it models distances only. Each obstacle is placed where it is at the cycle's time and "
+             "counts as still within the cycle: unlike the `qp` baseline's dampers, the barrier does not know how "
+             "fast an obstacle comes. The barrier gain has no counterpart in previewctl; each gain pink's examples "
+             f"use ran as its own row, nothing tuned on these scenes: {gains}. A cycle where pink found no solution "
+             "commands q̇ = 0.", "",
+             "Control cycle, the medians over the runs of each run's median [ms] (a pink cycle also computes "
+             "eq. 19's reference, which the log records and pink does not read; *pink's share* is the time "
+             "inside pink's calls alone):", "",
+             "| robot | controller | runs | cycle median [ms] | pink's share [ms] | cycles without a solution |",
+             "|---|---|---|---|---|---|"]
+    for robot, cells in _groups(records).items():
+        for (label, _), rows in cells.items():
+            pink = label in BARRIER_GAINS
+            if not pink and label not in (BASELINE, *LOOKING_AHEAD):
+                continue
+            share = f"{statistics.median(r['pink_time_median'] for r in rows) * 1e3:.2f}" if pink else "-"
+            missed = str(sum(r["pink_no_solution"] for r in rows)) if pink else "-"
+            lines.append(f"| {robot} | {label} | {len(rows)} | "
+                         f"{statistics.median(r['cycle_time_median'] for r in rows) * 1e3:.2f} | {share} | "
+                         f"{missed} |")
+    return [*lines, ""]
+
+
+def _observed_against_known(records: list[dict[str, Any]]) -> list[str]:
+    """Per robot, row and execution: success (< 1 mm) with perfect foresight and with observations on the same scenes
+    and seeds (the runs that have both), and the difference in points."""
+    known: dict[tuple[Any, ...], dict[str, Any]] = {}
+    observed: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for r in records:
+        key = (r["robot"], r["controller"], _latency(r), r["execution"], r.get("settings"), r["scene"], r["seed"])
+        (known if _sensing(r) == KNOWN else observed)[key] = r
+    pairs: dict[tuple[str, str, str], list[tuple[bool, bool]]] = defaultdict(list)
+    for key, r in observed.items():
+        if key in known:
+            robot, controller, latency, execution = key[:4]
+            pairs[(robot, _tagged(controller, latency, KNOWN), execution)].append(
+                (bool(known[key]["success_1mm"]), bool(r["success_1mm"])))
+    if not pairs:
+        return []
+    lines = [f"## Observed against perfect foresight (success < 1 mm, same scenes and seeds; observed: "
+             f"{OBSERVED_SENSING.rate:g} Hz, {OBSERVED_SENSING.noise * 1e3:g} mm noise, "
+             f"{OBSERVED_SENSING.latency * 1e3:g} ms latency, dropout {OBSERVED_SENSING.dropout:g})", "",
+             "| robot | controller | execution | scene-seed pairs | perfect foresight | observed | "
+             "difference [points] |",
+             "|---|---|---|---|---|---|---|"]
+    for (robot, label, execution), outcomes in sorted(pairs.items(), key=lambda item: (item[0][0],
+                                                                                         _order(item[0][1:]))):
+        foresight = sum(k for k, _ in outcomes) / len(outcomes)
+        seen = sum(o for _, o in outcomes) / len(outcomes)
+        lines.append(f"| {robot} | {label} | {execution} | {len(outcomes)} | {foresight:.0%} | {seen:.0%} | "
+                     f"{100 * (seen - foresight):+.0f} |")
     return [*lines, ""]
 
 
@@ -222,11 +312,21 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
                   "after its own measured CPU time (`time.process_time`, rounded up to whole control periods), the "
                   "previous plan until then, and the next plan was made once it had arrived, as a planner beside the "
                   "loop would. These rows depend on the host's speed and load: they are not bit-reproducible.", ""]
+    if any(_sensing(r) != KNOWN for r in records):
+        lines += ["Rows marked *(observed)* (`previewctl bench --sensing observed`): the controller did not read the "
+                  "moving obstacles' motion; the simulator observed it (noise, latency) and fed it the observations, "
+                  "from which it predicted (`[sensing]`, the constant-velocity Kalman filter by default). The check "
+                  "and the verdict use the true motion; `none` and `oracle` always run with perfect foresight.", ""]
     lines += ["## Success rates", ""]
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)
     lines += _plan_costs(groups)
+    lines += _observed_against_known(records)
     lines += _against_baseline(records)
+    for name in BARRIER_GAINS:
+        if any(r["controller"] == name for r in records):
+            lines += _against_baseline(records, name, LOOKING_AHEAD)
+    lines += _pink_note(records)
     if kept:
         lines += _kept(records, out)
     figure = plot_success({robot: {cell: _rate(rows, "success_1mm") for cell, rows in cells.items()}

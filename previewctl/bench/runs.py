@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 from previewctl.bench.metrics import run_metrics
+from previewctl.bench.pink import BARRIER_GAINS, PinkExecution, make_pink_controller
 from previewctl.bench.robots import cached_robot, profile, urdf_digest
 from previewctl.bench.scenes import BenchScene
 from previewctl.bench.settings import SceneSettings
@@ -30,11 +31,12 @@ from previewctl.control.planner import WindowPlanner
 from previewctl.errors import shared_settings
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
+from previewctl.sensing.options import Sensing
 from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
 
-KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings", "latency")
+KEY_FIELDS = ("robot", "scene", "seed", "controller", "execution", "settings", "latency", "sensing")
 """The fields of a run's key: a result line with the same values is the same run."""
 
 INLINE = "none"
@@ -46,6 +48,19 @@ host's speed."""
 LATENCY_CONTROLLERS = ("multi", "reach", "horizon")
 """The controllers whose plans a measured latency delays (the window planner's, replanned); the others run once,
 inline (the ``oracle`` makes one plan, followed at once)."""
+
+KNOWN = "none"
+OBSERVED = "observed"
+SENSINGS = (KNOWN, OBSERVED)
+"""What the controller knows of the moving obstacles: ``none`` (no sensing), their true motion, perfect foresight;
+``observed``, only observations of it (:data:`OBSERVED_SENSING`, :mod:`previewctl.sim.sensor`)."""
+OBSERVED_SENSING = Sensing(rate=30.0, noise=0.005, latency=0.05, dropout=0.0)
+"""The sensing of an observed run: 30 Hz, 5 mm noise, 50 ms latency, no dropout (issue 33's targets); its ``seed`` is
+the scene's index, so every controller of a scene gets the same observations."""
+FORESIGHT_CONTROLLERS = ("none", "oracle", *BARRIER_GAINS)
+"""The controllers that run with perfect foresight only: ``none`` reads no obstacle, the ``oracle`` follows the
+witness's plan of the true future (what was possible), and the pink baselines place the true obstacles (pink has
+no observed-obstacle interface)."""
 
 GENERATOR_VERSION = 2
 """Bumped when :mod:`previewctl.bench.scenes` draws differently: old results no longer match."""
@@ -64,6 +79,7 @@ class RunSpec:
         settings: :func:`settings_hash` of the scene settings and scene seed.
         scene_seed: the seed the scene was drawn with.
         latency: one of :data:`LATENCIES`.
+        sensing: one of :data:`SENSINGS`.
     """
 
     robot: str
@@ -74,6 +90,7 @@ class RunSpec:
     settings: str
     scene_seed: int = 0
     latency: str = INLINE
+    sensing: str = KNOWN
 
     @property
     def key(self) -> tuple[Any, ...]:
@@ -87,15 +104,28 @@ def run_latency(name: str, latency: str) -> str:
     return latency if name in LATENCY_CONTROLLERS else INLINE
 
 
+def run_sensing(name: str, sensing: str) -> str:
+    """The sensing controller ``name`` runs with when ``sensing`` is asked: itself, but ``none`` for the
+    :data:`FORESIGHT_CONTROLLERS`."""
+    return KNOWN if name in FORESIGHT_CONTROLLERS else sensing
+
+
+_KEY_DEFAULTS = {"latency": INLINE, "sensing": KNOWN}
+"""What a result line written before its key had these fields ran with: inline plans, perfect foresight."""
+
+
 def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
-    """The key of a result line (see :data:`KEY_FIELDS`; a line written before runs had a latency is inline)."""
-    return tuple(record.get(name, INLINE if name == "latency" else None) for name in KEY_FIELDS)
+    """The key of a result line (see :data:`KEY_FIELDS`; a line written before runs had a latency is inline, one
+    written before they had a sensing ran with perfect foresight)."""
+    return tuple(record.get(name, _KEY_DEFAULTS.get(name)) for name in KEY_FIELDS)
 
 
 def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
     """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields (a URDF
     file's content among them)."""
-    described = {"robot": robot, "scene_seed": scene_seed, "settings": dataclasses.asdict(settings),
+    drawn = {k: v for k, v in dataclasses.asdict(settings).items() if (k, v) != ("motions", "constant")}  # as before
+    # surprise scenes existed: constant-velocity scenes keep their hash, and their results
+    described = {"robot": robot, "scene_seed": scene_seed, "settings": drawn,
                  "profile": dataclasses.asdict(profile(robot)), "generator": GENERATOR_VERSION}
     digest = urdf_digest(robot)
     if digest is not None:
@@ -110,10 +140,13 @@ def _scenario(document: str) -> Scenario:
     return scenario_from_dict(data, source=data["name"])
 
 
-def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult, list[float]]:
-    """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller, execution and
-    latency), its log (exact check on the robot's mesh geometry) and the CPU time [s] of each plan its window planner
-    made (empty without one). An ``oracle`` follows the scene's
+def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult, dict[str, Any]]:
+    """Simulate ``spec`` on ``scene``: the run's scenario (the scene with the spec's controller, execution, latency
+    and sensing), its log (exact check on the robot's mesh geometry) and what its result line adds for this
+    controller: the CPU times of its window planner's plans (:func:`plan_costs`), or for a pink baseline
+    (:mod:`previewctl.bench.pink`) the cycles where it found no solution and its own time per cycle
+    (:meth:`~previewctl.bench.pink.PinkExecution.record`).
+    An ``oracle`` follows the scene's
     :attr:`~BenchScene.oracle_plan` when it has one: the plan it would make (a test checks the runs are the same),
     made once per scene by the witness, so this run's CPU time leaves the planning out."""
     base = _scenario(json.dumps(scene.document, sort_keys=True))
@@ -121,15 +154,22 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     params = dataclasses.replace(base.controller.params, execution=execution)
     if spec.latency == MEASURED:
         params = dataclasses.replace(params, plan_latency=MEASURED)
-    scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params))
-    exact = Evaluator(cached_robot(spec.robot, "mesh"), scenario.scene, scenario.index, scenario.potential)
+    sensing = dataclasses.replace(OBSERVED_SENSING, seed=spec.scene) if spec.sensing == OBSERVED else None
+    exact = Evaluator(cached_robot(spec.robot, "mesh"), base.scene, base.index, base.potential)
+    if spec.controller in BARRIER_GAINS:  # perfect foresight only (run_sensing)
+        scenario = dataclasses.replace(base, controller=ControllerSpec(base.controller.name, params))
+        pink = make_pink_controller(spec.controller, scenario.robot, scenario.path, scenario.scene, params,
+                                    scenario.timing.dt)
+        result = simulate(scenario, controller=pink, exact_evaluator=exact)
+        return scenario, result, cast(PinkExecution, pink.execution).record()
+    scenario = dataclasses.replace(base, controller=ControllerSpec(spec.controller, params), sensing=sensing)
     with shared_settings():  # every controller gets the profile's one table
         controller = make_controller(scenario, seed=spec.seed)
     if isinstance(controller.law, Oracle) and scene.oracle_plan:
         controller.law.planner.motion = ReachMotion.from_json(scene.oracle_plan)
     result = simulate(scenario, controller=controller, exact_evaluator=exact)
     planner = window_planner(controller.law)
-    return scenario, result, [] if planner is None else planner.costs
+    return scenario, result, plan_costs([] if planner is None else planner.costs)
 
 
 def window_planner(law: ControlLaw) -> WindowPlanner | None:
@@ -163,6 +203,6 @@ def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
         metrics = {k: v for k, v in made.items() if k not in ("execution", "seed")}
         return {**dataclasses.asdict(spec), "scenario": scene.document["name"], **metrics}
     start, cpu = time.perf_counter(), time.process_time()
-    scenario, result, costs = simulate_spec(spec, scene)
-    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **plan_costs(costs),
+    scenario, result, fields = simulate_spec(spec, scene)
+    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **fields,
             "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

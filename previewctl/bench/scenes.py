@@ -9,8 +9,10 @@
 3. the arm's motion under plain tracking (controller ``none``, no obstacle) up to each crossing time
    ``t_c``, drawn in the middle of the run; there a point on the polyline of the joint origins (the
    intermediate links, never the hand's link) is chosen, and an obstacle (a disc for a planar arm, a
-   ball otherwise) is sent through it at ``t_c`` at constant velocity, across the link. The first
-   obstacle crosses at ``0.35-0.65`` of the run; with probability 1/2 a second one crosses elsewhere.
+   ball otherwise) is sent through it at ``t_c`` at constant velocity, across the link (or, with
+   ``motions = "surprise"``, on its way there it turns, stops, changes speed or wanders:
+   :mod:`previewctl.bench.surprises`). The first obstacle crosses at ``0.35-0.65`` of the run; with
+   probability 1/2 a second one crosses elsewhere.
    Each obstacle is redrawn until it starts :data:`START_CLEARANCE` clear of the arm at ``q0``;
 4. the document goes through :func:`~previewctl.sim.scenario.scenario_from_dict` (the scenario files'
    validation path) and the solvability witness (:mod:`previewctl.bench.witness`); a draw it rejects
@@ -34,6 +36,7 @@ import pinocchio as pin
 from previewctl.bench.profiles import Profile
 from previewctl.bench.robots import bench_source, cached_robot, profile, robot_label
 from previewctl.bench.settings import SceneSettings
+from previewctl.bench.surprises import surprise
 from previewctl.bench.witness import witness
 from previewctl.control.factory import make_controller
 from previewctl.errors import ParameterError, ScenarioError
@@ -125,12 +128,13 @@ def draw_document(arm: Robot, robot: str, prof: Profile, rng: np.random.Generato
     path = HandPath(waypoints, duration)
     crossings = [rng.uniform(0.35, 0.65)] + ([rng.uniform(0.2, 0.8)] if rng.random() < 0.5 else [])
     states = _nominal_states(arm, path, q0, [c * duration for c in crossings], settings.dt)
-    obstacles = [_clear_crossing(arm, prof, rng, q0, q, c * duration, f"obstacle{i + 1}")
+    obstacles = [_clear_crossing(arm, prof, rng, q0, q, c * duration, f"obstacle{i + 1}", settings)
                  for i, (c, q) in enumerate(zip(crossings, states, strict=True))]
     return {
         "name": name,
         "description": f"bench scene: {robot_label(robot)}, {len(waypoints) - 1}-segment hand path in {duration:g} s, "
-                       f"{len(obstacles)} crossing obstacle(s)",
+                       f"{len(obstacles)} crossing obstacle(s)"
+                       + ("" if settings.motions == "constant" else f" ({settings.motions})"),
         "robot": {"source": robot, "q0": [float(v) for v in q0]},
         "path": {"waypoints": [[float(v) for v in p] for p in waypoints], "duration": duration},
         "obstacles": obstacles,
@@ -194,18 +198,20 @@ def _nominal_states(arm: Robot, path: HandPath, q0: Array, times: list[float], d
 
 
 def _clear_crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q0: Array, q: Array, t_c: float,
-                    name: str) -> dict[str, Any]:
+                    name: str, settings: SceneSettings) -> dict[str, Any]:
     """A :func:`_crossing` obstacle that starts at least :data:`START_CLEARANCE` away from the arm at ``q0``."""
     for _ in range(GEOMETRY_DRAWS):
-        table = _crossing(arm, prof, rng, q, t_c, name)
+        table = _crossing(arm, prof, rng, q, t_c, name, settings)
         if Evaluator(arm, scene_from_dict([table]))(q0[None, :], 0.0).min_distance[0] > START_CLEARANCE:
             return table
     raise ScenarioError(f"no obstacle crossing {arm.name!r} at t = {t_c:.3g} s starts clear of q0 in "
                         f"{GEOMETRY_DRAWS} draws (a longer duration gives it room)")
 
 
-def _crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q: Array, t_c: float, name: str) -> dict[str, Any]:
-    """An obstacle table that passes a point of the intermediate links (arm at ``q``) at time ``t_c`` [s]."""
+def _crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q: Array, t_c: float, name: str,
+              settings: SceneSettings) -> dict[str, Any]:
+    """An obstacle table that passes a point of the intermediate links (arm at ``q``) at time ``t_c`` [s], or
+    surprises on its way there (``settings.motions``)."""
     data = arm.model.createData()
     pin.forwardKinematics(arm.model, data, q)
     joints = np.array([data.oMi[j].translation for j in range(1, arm.model.njoints)])
@@ -230,5 +236,8 @@ def _crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q: Array, t_c
         shape = {"shape": "sphere", "radius": radius}
     start = point - velocity * t_c
     dims = 2 if arm.task == "planar" else 3
+    if settings.motions == "surprise":
+        duration = settings.duration if settings.duration is not None else prof.duration
+        return {"name": name, **shape, "motion": surprise(rng, start, velocity, point, t_c, radius, duration, dims)}
     return {"name": name, **shape, "motion": {"type": "constant_velocity", "position": [float(v) for v in start[:dims]],
                                               "velocity": [float(v) for v in velocity[:dims]]}}

@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 from previewctl.errors import ParameterError
 from previewctl.validation import Checked, Count, Flag, Positive
+
+MotionKind = Literal["constant", "surprise"]
+"""How the crossing obstacles of bench scenes move: at ``constant`` velocity, or with a ``surprise``
+(:mod:`previewctl.bench.surprises`)."""
+MOTION_KINDS: tuple[str, ...] = get_args(MotionKind)
 
 
 @dataclass(frozen=True)
@@ -25,6 +31,7 @@ class SceneSettings(Checked):
             exact check) without collision and with the hand within ``witness_tolerance``: the DP's on planar arms,
             the sampled search's on spatial ones (without it, a spatial scene passes on the necessary check alone).
         witness_tolerance: the largest hand error [m] of that run.
+        motions: how the crossing obstacles move, one of :data:`MOTION_KINDS`.
     """
 
     duration: Positive | None = None
@@ -35,6 +42,7 @@ class SceneSettings(Checked):
     witness_samples: Count = 256
     witness_follow: Flag = True
     witness_tolerance: Positive = 1e-3
+    motions: MotionKind = "constant"
 
     def check(self) -> None:
         """A run of at least two control periods (each field is checked by its annotation first).

@@ -21,10 +21,23 @@ from typing import Annotated, Any
 from pydantic import Field, InstanceOf
 
 from previewctl.bench.keep import RUNS_FOLDER, keep_run, run_folder, runs_to_keep
+from previewctl.bench.pink import BARRIER_GAINS, pink_module
+from previewctl.bench.pink import EXECUTION as PINK_EXECUTION
 from previewctl.bench.provenance import stamp
 from previewctl.bench.results import append_record, read_records
 from previewctl.bench.robots import VALID_ROBOTS, bench_source, profile
-from previewctl.bench.runs import INLINE, LATENCIES, RunSpec, record_key, run, run_latency, settings_hash
+from previewctl.bench.runs import (
+    INLINE,
+    KNOWN,
+    LATENCIES,
+    SENSINGS,
+    RunSpec,
+    record_key,
+    run,
+    run_latency,
+    run_sensing,
+    settings_hash,
+)
 from previewctl.bench.scenes import BenchScene, generate
 from previewctl.bench.settings import SceneSettings
 from previewctl.control import params as control_params
@@ -46,14 +59,15 @@ SCENES_NAME = "scenes.jsonl"
 
 @dataclass(frozen=True)
 class Sweep(Checked):
-    """What to run: robots x scenes x controller seeds x controllers x execution modes x latencies; every field is
-    checked when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
+    """What to run: robots x scenes x controller seeds x controllers x execution modes x latencies x sensings; every
+    field is checked when made (a bad count, seed or type raises :class:`~previewctl.errors.ParameterError` naming it).
 
     Attributes:
         robots: robot names or URDF files (:mod:`previewctl.bench.robots`; a file becomes its absolute path).
         scenes: scenes per robot (indices ``0 .. scenes - 1``).
         controllers: controller names (empty: every name of ``CONTROLLER_NAMES``, read at run time;
-            ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``).
+            ``none`` under the QP runs as ``qp``, ``qp`` under the pseudo-inverse as ``none``), or pink baselines
+            (:data:`~previewctl.bench.pink.BARRIER_GAINS`, only when named; they run under the QP mode only).
         executions: execution modes (empty: every one of ``EXECUTION_MODES``).
         seeds: controller seeds, each once (of the controllers that draw random numbers; the others run once per
             scene, as seed 0).
@@ -61,6 +75,9 @@ class Sweep(Checked):
         settings: what every scene shares (duration, dt, witness).
         latencies: when the plans take effect, each of :data:`~previewctl.bench.runs.LATENCIES` (a controller
             without a replanned window planner runs inline only, :func:`~previewctl.bench.runs.run_latency`).
+        sensings: what the controllers know of the moving obstacles, each of
+            :data:`~previewctl.bench.runs.SENSINGS` (``none`` and ``oracle`` run with perfect foresight only,
+            :func:`~previewctl.bench.runs.run_sensing`).
     """
 
     robots: tuple[Text, ...] = ("planar4",)
@@ -71,15 +88,18 @@ class Sweep(Checked):
     scene_seed: Annotated[Integer, Field(ge=0)] = 0
     settings: InstanceOf[SceneSettings] = field(default_factory=SceneSettings)
     latencies: tuple[Text, ...] = (INLINE,)
+    sensings: tuple[Text, ...] = (KNOWN,)
 
     def check(self) -> None:
         """Every name, and each robot's profile (each field's type and count is checked by its annotation first);
         a robot's source made canonical (:func:`~previewctl.bench.robots.bench_source`).
 
         Raises:
-            UnknownNameError: an unknown robot, controller, execution mode or latency (the valid ones listed).
+            UnknownNameError: an unknown robot, controller, execution mode, latency or sensing (the valid ones
+                listed).
+            MissingExtraError: a pink baseline named without pink installed.
             RobotLoadError: a missing URDF file or one that does not load as an arm.
-            ParameterError: no robot, no seed, no latency, or an arm no profile can be derived for.
+            ParameterError: no robot, no seed, no latency, no sensing, or an arm no profile can be derived for.
         """
         if not self.robots:
             raise ParameterError(f"give at least one robot; valid: {', '.join(VALID_ROBOTS)}")
@@ -87,39 +107,60 @@ class Sweep(Checked):
             raise ParameterError("give at least one controller seed, e.g. seeds=(0,)")
         if not self.latencies:
             raise ParameterError(f"give at least one latency; valid: {', '.join(LATENCIES)}")
+        if not self.sensings:
+            raise ParameterError(f"give at least one sensing; valid: {', '.join(SENSINGS)}")
         object.__setattr__(self, "robots", tuple(bench_source(robot) for robot in self.robots))
         for robot in self.robots:
             profile(robot)
         for name in self.controllers:
-            if name not in control_params.CONTROLLER_NAMES:
-                raise UnknownNameError("controller", name, control_params.CONTROLLER_NAMES)
+            if name not in control_params.CONTROLLER_NAMES and name not in BARRIER_GAINS:
+                raise UnknownNameError("controller", name, (*control_params.CONTROLLER_NAMES, *BARRIER_GAINS))
+        if any(name in BARRIER_GAINS for name in self.controllers):
+            pink_module()  # before a cluster starts: one line naming the extra
         for name in self.executions:
             if name not in control_params.EXECUTION_MODES:
                 raise UnknownNameError("execution mode", name, control_params.EXECUTION_MODES)
         for name in self.latencies:
             if name not in LATENCIES:
                 raise UnknownNameError("latency", name, LATENCIES)
+        for name in self.sensings:
+            if name not in SENSINGS:
+                raise UnknownNameError("sensing", name, SENSINGS)
 
     def runs(self) -> list[RunSpec]:
         """The whole matrix, scene by scene (a scene's runs are neighbours, so workers reuse its scenario).
 
-        ``none`` runs under the pseudo-inverse only and ``qp`` under the QP only
-        (:func:`~previewctl.control.params.controller_runs`); a controller that draws no random numbers runs for
-        seed 0 only (:func:`~previewctl.control.params.run_seed`), and one without a replanned planner inline only
-        (:func:`~previewctl.bench.runs.run_latency`)."""
-        pairs = control_params.controller_runs(self.controllers or control_params.CONTROLLER_NAMES,
-                                               self.executions or control_params.EXECUTION_MODES)
+        ``none`` runs under the pseudo-inverse only, ``qp`` and the pink baselines under the QP only
+        (:func:`run_pairs`); a controller that draws no random numbers runs for
+        seed 0 only (:func:`~previewctl.control.params.run_seed`), one without a replanned planner inline only
+        (:func:`~previewctl.bench.runs.run_latency`), and ``none``, ``oracle`` and the pink baselines with perfect
+        foresight only (:func:`~previewctl.bench.runs.run_sensing`)."""
+        pairs = run_pairs(self.controllers or control_params.CONTROLLER_NAMES,
+                          self.executions or control_params.EXECUTION_MODES)
         specs = []
         for robot in self.robots:
             settings = settings_hash(robot, self.scene_seed, self.settings)
             for scene in range(self.scenes):
                 runs = dict.fromkeys((control_params.run_seed(name, seed), name, execution,
-                                      run_latency(name, latency))
-                                     for latency in self.latencies for seed in self.seeds
-                                     for name, execution in pairs)  # each run once, in order
-                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed, latency)
-                          for seed, name, execution, latency in runs]
+                                      run_latency(name, latency), run_sensing(name, sensing))
+                                     for sensing in self.sensings for latency in self.latencies
+                                     for seed in self.seeds for name, execution in pairs)  # each run once, in order
+                specs += [RunSpec(robot, scene, seed, name, execution, settings, self.scene_seed, latency, sensing)
+                          for seed, name, execution, latency, sensing in runs]
         return specs
+
+
+def run_pairs(names: tuple[str, ...], executions: tuple[str, ...]) -> list[tuple[str, str]]:
+    """The ``(controller, execution)`` pairs of ``names`` × ``executions``, in order (names outer): previewctl's
+    controllers as :func:`~previewctl.control.params.controller_runs` says, a pink baseline under
+    :data:`~previewctl.bench.pink.EXECUTION` only (if it is asked for)."""
+    pairs: list[tuple[str, str]] = []
+    for name in names:
+        if name in BARRIER_GAINS:
+            pairs += [(name, PINK_EXECUTION)] if PINK_EXECUTION in executions else []
+        else:
+            pairs += control_params.controller_runs([name], executions)
+    return pairs
 
 
 @dataclass
@@ -194,7 +235,8 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
             fetched[key] = scene_tasks[key].result()
             if key not in known:
                 append_record(scenes_file, {**dataclasses.asdict(fetched[key]), "settings": spec.settings})
-        append_record(results, {**record, "scene_rejected": fetched[key].rejected, **stamp()})
+        append_record(results, {**record, "scene_rejected": fetched[key].rejected,
+                                "motions": sweep.settings.motions, **stamp()})
         outcome.done += 1
         if on_result is not None:
             on_result(record)

@@ -11,11 +11,12 @@ from pathlib import Path
 from tqdm import tqdm
 
 from previewctl.bench.keep import FAILURES_KEPT
+from previewctl.bench.pink import BARRIER_GAINS
 from previewctl.bench.profiles import PROFILES
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.runs import LATENCIES, LATENCY_CONTROLLERS
-from previewctl.bench.settings import SceneSettings
+from previewctl.bench.runs import FORESIGHT_CONTROLLERS, LATENCIES, LATENCY_CONTROLLERS, OBSERVED_SENSING, SENSINGS
+from previewctl.bench.settings import MOTION_KINDS, SceneSettings
 from previewctl.bench.sweep import RESULTS_NAME, SCENES_NAME, Sweep, dask_client, keep_runs, run_sweep
 from previewctl.cli.common import (
     Commands,
@@ -53,7 +54,9 @@ def add_parser(commands: Commands) -> None:
            "any arm `previewctl robots --all` lists or a URDF file (a profile derived from the arm's reach)")
     option("--scenes", type=int, default=10, metavar="N", help="scenes per robot (default 10)")
     option("--controller", metavar="NAMES",
-           help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)})")
+           help=f"comma-separated controllers (default: all of {', '.join(CONTROLLER_NAMES)}); also the pink "
+           f"baselines {', '.join(BARRIER_GAINS)} (pink's solve_ik with its collision barrier at the gains of pink's "
+           "examples; only when named, under the QP execution only; need pip install 'previewctl[bench]')")
     option("--execution", metavar="NAMES",
            help=f"comma-separated execution modes (default: all of {', '.join(EXECUTION_MODES)})")
     option("--seed", type=seed_list, default=(0,), metavar="SEEDS",
@@ -65,6 +68,17 @@ def add_parser(commands: Commands) -> None:
            f"{', '.join(LATENCY_CONTROLLERS)} (the others run once, inline); the report shows these runs as their own "
            "rows beside the inline ones, which a rerun into the same OUT keeps; measured runs depend on the host's "
            "speed and are not bit-reproducible")
+    option("--sensing", default="none", metavar="NAMES",
+           help=f"comma-separated, what the controllers know of the moving obstacles (default none): "
+           f"{', '.join(SENSINGS)}; none: their true motion (perfect foresight); observed: only observations "
+           f"({OBSERVED_SENSING.rate:g} Hz, {OBSERVED_SENSING.noise * 1e3:g} mm noise, "
+           f"{OBSERVED_SENSING.latency * 1e3:g} ms latency), from which they predict; "
+           f"{', '.join(FORESIGHT_CONTROLLERS)} always run with perfect foresight; the report sets the two side by "
+           "side")
+    option("--motions", default="constant", metavar="KIND",
+           help=f"how the crossing obstacles move (default constant): {', '.join(MOTION_KINDS)}; surprise: on the "
+           "way to the arm each turns, stops, changes speed or wanders (seeded), which a constant-velocity prediction "
+           "does not foresee; the witness keeps the true future")
     option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
     option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
     option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")
@@ -104,7 +118,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
             raise ParameterError("--workers sizes a local cluster; it cannot be used with --scheduler")
         sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controller),
                       executions=_names(args.execution), seeds=args.seed, scene_seed=args.scene_seed,
-                      settings=SceneSettings(duration=args.duration), latencies=_names(args.latency))
+                      settings=SceneSettings(duration=args.duration, motions=args.motions),
+                      latencies=_names(args.latency), sensings=_names(args.sensing))
         start = time.perf_counter()
         bars: list[tqdm] = []
         try:

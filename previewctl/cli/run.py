@@ -143,6 +143,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         ("plan age p95 / fallback", f"{'-' if age is None else f'{age * 1e3:.0f} ms'} / "
                                     f"{100 * summary['fallback_fraction']:.1f}% of cycles"),
     ]
+    sensing = scenario.sensing
+    if sensing is not None:
+        rows.append(("observations", f"{summary['observations']} delivered, {summary['observations_dropped']} dropped "
+                                     f"({sensing.rate:g} Hz, noise {sensing.noise * 1e3:g} mm, latency "
+                                     f"{sensing.latency * 1e3:g} ms, dropout {sensing.dropout:g})"))
     for label, value in rows:
         print(f"{label:<26}{value}")
     print(f"{'written':<26}{npz_path}, {json_path}")

@@ -22,7 +22,17 @@ from typing import Any
 import numpy as np
 
 from previewctl.errors import SceneError
-from previewctl.scene.motion import ConstantVelocity, Motion, Periodic, Static, Waypoints, rpy_to_matrix
+from previewctl.scene.motion import (
+    ConstantVelocity,
+    Motion,
+    Periodic,
+    RandomWalk,
+    SpeedChange,
+    Static,
+    Turn,
+    Waypoints,
+    rpy_to_matrix,
+)
 from previewctl.scene.schema import SHAPES, MotionTable, SceneFile
 from previewctl.scene.shapes import Obstacle, Scene
 from previewctl.validation import validate
@@ -43,7 +53,16 @@ def motion_from_table(spec: Any, where: str) -> Motion:
             return ConstantVelocity(spec.position, spec.velocity, rotation, spec.start_time)
         if spec.type == "waypoints":
             return Waypoints(spec.times, spec.positions, rotation, spec.loop)
-        return Periodic(spec.center, spec.amplitude, spec.period, spec.phase, rotation)
+        if spec.type == "periodic":
+            return Periodic(spec.center, spec.amplitude, spec.period, spec.phase, rotation)
+        if spec.type == "turn":
+            return Turn(spec.position, spec.velocity, spec.turn_time, spec.angle, spec.rate, spec.axis, rotation)
+        if spec.type == "stop":
+            return SpeedChange(spec.position, spec.velocity, spec.stop_time, 0.0, spec.braking_time, rotation)
+        if spec.type == "speed_change":
+            return SpeedChange(spec.position, spec.velocity, spec.change_time, spec.factor, spec.ramp_time, rotation)
+        return RandomWalk(spec.position, spec.center, spec.half_size, spec.speed, spec.seed, spec.velocity,
+                          spec.correlation_time, spec.duration, spec.step, rotation)
     except SceneError as exc:  # the motions' messages start with the key, e.g. "period must be > 0"
         raise SceneError(f"{where}.{exc}") from exc
 
@@ -54,7 +73,11 @@ def motion_from_dict(spec: Mapping[str, object], where: str) -> Motion:
     Keys per ``type`` (:class:`~previewctl.scene.schema.StaticTable` and its siblings; ``rpy``
     [rad] is optional for each): ``static``: ``position``; ``constant_velocity``: ``position``,
     ``velocity``, ``start_time = 0``; ``waypoints``: ``times``, ``positions``, ``loop = false``;
-    ``periodic``: ``center``, ``amplitude``, ``period``, ``phase = 0``. Vectors may have 2 entries
+    ``periodic``: ``center``, ``amplitude``, ``period``, ``phase = 0``; ``turn``: ``position``, ``velocity``,
+    ``turn_time``, ``angle``, ``rate = None`` (at once), ``axis = [0, 0, 1]``; ``stop``: ``position``, ``velocity``,
+    ``stop_time``, ``braking_time = 0``; ``speed_change``: ``position``, ``velocity``, ``change_time``, ``factor``,
+    ``ramp_time = 0``; ``random_walk``: ``position``, ``center``, ``half_size``, ``speed``, ``seed``,
+    ``velocity = 0``, ``correlation_time = 1``, ``duration = 60``, ``step = 0.05``. Vectors may have 2 entries
     (planar scenes; ``z = 0``).
 
     Args:

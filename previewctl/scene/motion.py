@@ -11,6 +11,7 @@ velocities, amplitudes, centres) may be given with 2 entries for planar scenes, 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -369,6 +370,275 @@ class Periodic(_Placed):
         """
         angle = 2.0 * np.pi * _times(times) / self.period + self.phase
         return self.center + np.sin(angle)[:, None] * self.amplitude
+
+
+# ----------------------------------------------------------------------------- surprises
+# Motions a constant-velocity predictor does not know: the velocity turns, the speed changes (or drops to 0), or the
+# obstacle wanders. Each starts at ``position`` at ``t = 0`` and holds it before.
+
+
+def _elapsed(times: ArrayLike) -> NDArray[np.float64]:
+    """Validated times [s] clipped at 0: the motions below hold their start before ``t = 0``."""
+    return np.maximum(_times(times), 0.0)
+
+
+def _non_negative(value: object, name: str, unit: str) -> float:
+    """``value`` as a finite real >= 0; :class:`SceneError` naming it otherwise."""
+    number = _scalar(value, name)
+    if number < 0.0:
+        raise SceneError(f"{name} must be >= 0 [{unit}], got {number!r}")
+    return number
+
+
+def _positive(value: object, name: str, unit: str) -> float:
+    """``value`` as a finite real > 0; :class:`SceneError` naming it otherwise."""
+    number = _scalar(value, name)
+    if number <= 0.0:
+        raise SceneError(f"{name} must be > 0 [{unit}], got {number!r}")
+    return number
+
+
+@dataclass(frozen=True, eq=False)
+class Turn(_Placed):
+    """A straight line whose velocity turns by ``angle`` about ``axis`` from ``turn_time`` on, then a straight line.
+
+    With ``ω = rate`` (signed like ``angle``), ``T = |angle| / rate`` and the velocity split into ``v_a`` along the
+    axis and ``v_⊥`` across it, the velocity ``s`` seconds into the turn is ``v_a + v_⊥ cos(ω s) + (a × v_⊥) sin(ω s)``
+    for ``s <= T`` (a circular arc of radius ``|v_⊥| / |ω|``), so the position is::
+
+        p(t) = position + velocity t                                          t <= turn_time
+        p(turn_time + s) = p(turn_time) + v_a s + v_⊥ sin(ω s) / ω + (a × v_⊥)(1 − cos(ω s)) / ω     s <= T
+
+    and a straight line at the turned velocity after ``T``. ``rate = None`` turns at once (``T = 0``: the velocity
+    jumps, the position is continuous).
+
+    Attributes:
+        position: Position at ``t = 0``, shape (3,) [m]; held before. Read-only.
+        velocity: Velocity before the turn, shape (3,) [m/s]. Read-only.
+        turn_time: When the turn starts [s], >= 0.
+        angle: How far the velocity turns [rad], about ``axis`` (right-hand rule).
+        rate: Turn rate [rad/s], > 0, or ``None``: at once.
+        axis: Turn axis, shape (3,), normalised (default z: a turn in a planar scene's plane). Read-only.
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+    """
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    turn_time: float
+    angle: float
+    rate: float | None = None
+    axis: NDArray[np.float64] = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        self._points("position")
+        self._points("velocity")
+        object.__setattr__(self, "turn_time", _non_negative(self.turn_time, "turn_time", "s"))
+        object.__setattr__(self, "angle", _scalar(self.angle, "angle"))
+        if self.rate is not None:
+            object.__setattr__(self, "rate", _positive(self.rate, "rate", "rad/s"))
+        axis = _real_array(self.axis, "axis")
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0.0:
+            raise SceneError(f"axis must be 3 finite numbers, not all 0, got {show(axis)}")
+        object.__setattr__(self, "axis", _frozen(axis / np.linalg.norm(axis)))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+
+    @property
+    def duration(self) -> float:
+        """How long the turn lasts, ``|angle| / rate`` [s] (0 for a turn at once)."""
+        return 0.0 if self.rate is None else abs(self.angle) / self.rate
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        elapsed = _elapsed(times)
+        along = self.velocity.dot(self.axis) * self.axis
+        across = self.velocity - along
+        side = np.cross(self.axis, across)
+        after = along + across * np.cos(self.angle) + side * np.sin(self.angle)
+        straight = np.minimum(elapsed, self.turn_time)
+        since = elapsed - straight
+        turning = np.minimum(since, self.duration)
+        path = self.position + straight[:, None] * self.velocity + (since - turning)[:, None] * after
+        if self.rate is not None and self.angle != 0.0:
+            omega = np.copysign(self.rate, self.angle)
+            phase = omega * turning
+            path += (turning[:, None] * along + np.sin(phase)[:, None] * across / omega
+                     + (1.0 - np.cos(phase))[:, None] * side / omega)
+        return path
+
+
+@dataclass(frozen=True, eq=False)
+class SpeedChange(_Placed):
+    """A straight line whose speed changes by ``factor`` at ``change_time``, ramped linearly over ``ramp_time``.
+
+    A stop is ``factor = 0`` (``ramp_time``: the braking time), a speed-up ``factor > 1``. With the speed scale
+    ``σ(t)`` = 1 before ``change_time``, linear to ``factor`` over ``ramp_time``, ``factor`` after::
+
+        p(t) = position + velocity ∫_0^t σ,   ∫ over the ramp = u + (factor − 1) u² / (2 ramp_time)
+
+    for ``u`` seconds into the ramp.
+
+    Attributes:
+        position: Position at ``t = 0``, shape (3,) [m]; held before. Read-only.
+        velocity: Velocity before the change, shape (3,) [m/s]. Read-only.
+        change_time: When the change starts [s], >= 0.
+        factor: Speed after the change over speed before, >= 0 (0: the obstacle stops).
+        ramp_time: How long the change takes [s], >= 0 (0: at once).
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+    """
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    change_time: float
+    factor: float
+    ramp_time: float = 0.0
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        self._points("position")
+        self._points("velocity")
+        object.__setattr__(self, "change_time", _non_negative(self.change_time, "change_time", "s"))
+        object.__setattr__(self, "factor", _non_negative(self.factor, "factor", "1"))
+        object.__setattr__(self, "ramp_time", _non_negative(self.ramp_time, "ramp_time", "s"))
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        elapsed = _elapsed(times)
+        before = np.minimum(elapsed, self.change_time)
+        ramp = np.clip(elapsed - self.change_time, 0.0, self.ramp_time)
+        after = np.maximum(elapsed - self.change_time - self.ramp_time, 0.0)
+        ramped = ramp if self.ramp_time == 0.0 else ramp + (self.factor - 1.0) * ramp**2 / (2.0 * self.ramp_time)
+        distance = before + ramped + self.factor * after
+        return self.position + distance[:, None] * self.velocity
+
+
+MAX_WALK_STEPS = 1_000_000
+"""Most steps of a :class:`RandomWalk` (``duration / step``)."""
+
+
+@dataclass(frozen=True, eq=False)
+class RandomWalk(_Placed):
+    """A smooth random walk inside the box ``center ± half_size``, the same for the same ``seed``.
+
+    An unbounded walk ``x(t)`` is folded into the box per axis: ``p = center + h sin(x / h)`` (``h = half_size``),
+    so the obstacle never leaves the box, slows down towards a wall and turns back there smoothly. ``ẋ`` is an
+    Ornstein-Uhlenbeck process sampled every ``step`` (exact discretisation: ``u_{k+1} = u_k e^{−step/τ} +
+    speed √(1 − e^{−2 step/τ}) ξ_k``, ``ξ_k`` standard normal from ``np.random.default_rng(seed)``, ``τ`` the
+    correlation time), linear between the samples, so ``x`` is its exact integral: positions and velocities are
+    continuous and the acceleration bounded. It starts at ``position`` with ``velocity`` and holds its start before
+    ``t = 0`` and its end after ``duration`` (rounded up to a whole step). An axis with ``half_size = 0`` stays at
+    ``center``.
+
+    Attributes:
+        position: Start, shape (3,) [m], strictly inside the box. Read-only.
+        center: Centre of the box, shape (3,) [m]. Read-only.
+        half_size: Half extents of the box, shape (3,) [m], >= 0. Read-only.
+        speed: Standard deviation of the walk's velocity per axis [m/s] (before the folding), >= 0.
+        seed: Seed of the walk, an integer >= 0.
+        velocity: Velocity at ``t = 0``, shape (3,) [m/s] (default 0). Read-only.
+        correlation_time: How long the walk keeps a velocity, ``τ`` [s], > 0.
+        duration: How long it walks [s], > 0.
+        step: Time between velocity samples [s], > 0.
+        rotation: Rotation matrix, shape (3, 3). Read-only.
+    """
+
+    position: NDArray[np.float64]
+    center: NDArray[np.float64]
+    half_size: NDArray[np.float64]
+    speed: float
+    seed: int
+    velocity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    correlation_time: float = 1.0
+    duration: float = 60.0
+    step: float = 0.05
+    rotation: NDArray[np.float64] = field(default_factory=_identity)
+    _walk: NDArray[np.float64] = field(init=False, repr=False)
+    _rates: NDArray[np.float64] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        """Validate and freeze the fields, and draw the walk.
+
+        Raises:
+            SceneError: If a field is malformed; the message names the bad value.
+        """
+        for name in ("position", "center", "half_size", "velocity"):
+            self._points(name)
+        if np.any(self.half_size < 0.0):
+            raise SceneError(f"half_size must be >= 0 [m] on every axis, got {show(self.half_size)}")
+        offset, moving = self.position - self.center, self.half_size > 0.0
+        if np.any(np.abs(offset[moving]) >= self.half_size[moving]) or np.any(offset[~moving] != 0.0):
+            raise SceneError(f"position {show(self.position)} must be strictly inside the box center "
+                             f"{show(self.center)} ± half_size {show(self.half_size)}")
+        object.__setattr__(self, "speed", _non_negative(self.speed, "speed", "m/s"))
+        if isinstance(self.seed, (bool, np.bool_)) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise SceneError(f"seed must be an integer >= 0, got {show(self.seed)}")
+        object.__setattr__(self, "seed", int(self.seed))
+        for name, unit in (("correlation_time", "s"), ("duration", "s"), ("step", "s")):
+            object.__setattr__(self, name, _positive(getattr(self, name), name, unit))
+        if self.duration / self.step > MAX_WALK_STEPS:
+            raise SceneError(f"duration / step = {self.duration / self.step:.3g} steps, more than {MAX_WALK_STEPS:,}; "
+                             f"valid: a longer step or a shorter duration")
+        object.__setattr__(self, "rotation", _frozen(_rotation(self.rotation)))
+        self._draw(moving)
+
+    def _draw(self, moving: NDArray[np.bool_]) -> None:
+        """The unfolded walk ``x`` and its velocity ``u`` at the samples, shape (K + 1, 3) each."""
+        h = np.where(moving, self.half_size, 1.0)
+        start = np.where(moving, h * np.arcsin((self.position - self.center) / h), 0.0)
+        count = math.ceil(self.duration / self.step)
+        decay = math.exp(-self.step / self.correlation_time)
+        kicks = self.speed * math.sqrt(1.0 - decay**2) * np.random.default_rng(self.seed).standard_normal((count, 3))
+        rates = np.empty((count + 1, 3))
+        rates[0] = np.where(moving, self.velocity / np.cos(start / h), 0.0)
+        for k in range(count):
+            rates[k + 1] = decay * rates[k] + kicks[k]
+        rates[:, ~moving] = 0.0
+        walk = start + np.concatenate((np.zeros((1, 3)), np.cumsum(0.5 * self.step * (rates[1:] + rates[:-1]), axis=0)))
+        object.__setattr__(self, "_walk", _frozen(walk))
+        object.__setattr__(self, "_rates", _frozen(rates))
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Positions at the given times.
+
+        Args:
+            times: Times, shape (T,) [s].
+
+        Returns:
+            Positions, shape (T, 3) [m]; a fresh array.
+        """
+        elapsed = np.minimum(_elapsed(times), (self._walk.shape[0] - 1) * self.step)
+        k = np.minimum((elapsed // self.step).astype(np.int64), self._walk.shape[0] - 2)
+        s = (elapsed - k * self.step)[:, None]
+        u0, u1 = self._rates[k], self._rates[k + 1]
+        walk = self._walk[k] + u0 * s + (u1 - u0) * s**2 / (2.0 * self.step)
+        moving = self.half_size > 0.0
+        h = np.where(moving, self.half_size, 1.0)
+        return np.where(moving, self.center + h * np.sin(walk / h), self.center)
 
 
 # ----------------------------------------------------------------------------- rotations

@@ -18,7 +18,18 @@ from typing import Annotated, Any, Literal, Union, get_args
 from pydantic import Field, ValidationInfo, create_model, field_validator, model_validator
 
 from previewctl.scene.shapes import Box, Capsule, Cylinder, Halfspace, Mesh, Plane, Sphere
-from previewctl.validation import Finite, Flag, Section, Size, Text, fields_of, invalid
+from previewctl.validation import (
+    Finite,
+    Flag,
+    Integer,
+    NonNegative,
+    Positive,
+    Section,
+    Size,
+    Text,
+    fields_of,
+    invalid,
+)
 
 Point = Annotated[tuple[Finite, ...], Size(2, 3)]
 """A position [m]: 3 numbers, or 2 in a planar scene (``z = 0``)."""
@@ -79,8 +90,62 @@ class PeriodicTable(Section):
     rpy: Angles = _NO_TURN
 
 
+class TurnTable(Section):
+    """``{type = "turn", position, velocity [m/s], turn_time [s], angle [rad], rate [rad/s] = at once, axis = z}``."""
+
+    type: Literal["turn"]
+    position: Point
+    velocity: Point
+    turn_time: NonNegative
+    angle: Finite
+    rate: Positive | None = None
+    axis: Annotated[tuple[Finite, Finite, Finite], Size(3)] = (0.0, 0.0, 1.0)
+    rpy: Angles = _NO_TURN
+
+
+class StopTable(Section):
+    """``{type = "stop", position, velocity [m/s], stop_time [s], braking_time [s] = 0}``: a speed change to 0."""
+
+    type: Literal["stop"]
+    position: Point
+    velocity: Point
+    stop_time: NonNegative
+    braking_time: NonNegative = 0.0
+    rpy: Angles = _NO_TURN
+
+
+class SpeedChangeTable(Section):
+    """``{type = "speed_change", position, velocity [m/s], change_time [s], factor, ramp_time [s] = 0}``."""
+
+    type: Literal["speed_change"]
+    position: Point
+    velocity: Point
+    change_time: NonNegative
+    factor: NonNegative
+    ramp_time: NonNegative = 0.0
+    rpy: Angles = _NO_TURN
+
+
+class RandomWalkTable(Section):
+    """``{type = "random_walk", position, center, half_size [m], speed [m/s], seed, velocity [m/s] = 0,
+    correlation_time [s] = 1, duration [s] = 60, step [s] = 0.05}``."""
+
+    type: Literal["random_walk"]
+    position: Point
+    center: Point
+    half_size: Point
+    speed: NonNegative
+    seed: Annotated[Integer, Field(ge=0)]
+    velocity: Point = _ORIGIN
+    correlation_time: Positive = 1.0
+    duration: Positive = 60.0
+    step: Positive = 0.05
+    rpy: Angles = _NO_TURN
+
+
 MotionTable = Annotated[
-    Union[StaticTable, ConstantVelocityTable, WaypointsTable, PeriodicTable],  # noqa: UP007
+    Union[StaticTable, ConstantVelocityTable, WaypointsTable, PeriodicTable, TurnTable, StopTable,  # noqa: UP007
+          SpeedChangeTable, RandomWalkTable],
     Field(discriminator="type"),
 ]
 """A motion table, told apart by its ``type``."""

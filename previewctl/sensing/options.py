@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Annotated, Any, Literal, get_args
+
+from pydantic import Field
 
 from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.scene.motion import Static
+from previewctl.scene.shapes import Scene
 from previewctl.sensing.predictors import ConstantVelocityKalman, Predictor, Stationary
-from previewctl.validation import Checked, NonNegative, Positive, Text, show
+from previewctl.validation import Checked, Integer, NonNegative, Positive, Probability, Text, show
 
 PredictorName = Literal["kalman", "stationary"]
 """The built-in predictors: :class:`~previewctl.sensing.predictors.ConstantVelocityKalman` and
@@ -34,6 +38,11 @@ class Sensing(Checked):
         initial_speed: the standard deviation [m/s] of an obstacle's velocity before it is known (``kalman``).
         confidence: ``k`` of the margin ``min(cap, k σ(t))`` [m] by which a predicted obstacle is inflated.
         margin_cap: ``cap`` [m] of that margin.
+        rate: the simulator's observations per obstacle per second [Hz] (:mod:`previewctl.sim.sensor`).
+        noise: the standard deviation [m] of the Gaussian noise the simulator adds to each observed position.
+        latency: the time [s] between an observation and its delivery to the controller in the simulator.
+        dropout: the probability that the simulator drops an observation.
+        seed: the seed of the simulator's noise and dropouts.
     """
 
     predictor: PredictorName | Any = "kalman"
@@ -45,6 +54,11 @@ class Sensing(Checked):
     initial_speed: Positive = 1.0
     confidence: NonNegative = 2.0
     margin_cap: NonNegative = 0.1
+    rate: Positive = 30.0
+    noise: NonNegative = 0.005
+    latency: NonNegative = 0.05
+    dropout: Probability = 0.0
+    seed: Annotated[Integer, Field(ge=0)] = 0
 
     def check(self) -> None:
         """The predictor is a built-in name or a :class:`~previewctl.sensing.predictors.Predictor`."""
@@ -55,6 +69,12 @@ class Sensing(Checked):
         elif not isinstance(predictor, Predictor):
             raise ParameterError(f"predictor must be one of {', '.join(PREDICTORS)} or a Predictor (update, predict, "
                                  f"sigma), got {type(predictor).__name__} {show(predictor)}")
+
+    def observed(self, scene: Scene) -> tuple[str, ...]:
+        """The names of ``scene``'s obstacles that are observed: :attr:`names`, or every moving one."""
+        if self.names is not None:
+            return self.names
+        return tuple(o.name for o in scene.obstacles if not isinstance(o.motion, Static))
 
     def new_predictor(self) -> Predictor:
         """A fresh predictor for one obstacle."""

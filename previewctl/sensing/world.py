@@ -23,7 +23,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from previewctl.errors import ObservationError, UnknownNameError
-from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Obstacle, Scene, Shape
 from previewctl.sensing.options import Sensing
 from previewctl.sensing.track import Track
@@ -66,9 +65,7 @@ class World:
 
     def __init__(self, scene: Scene, sensing: Sensing, *, spatial: str | None = None) -> None:
         self.sensing, self.spatial = sensing, spatial
-        names = sensing.names
-        if names is None:
-            names = tuple(o.name for o in scene.obstacles if not isinstance(o.motion, Static))
+        names = sensing.observed(scene)
         known = {o.name: o for o in scene.obstacles}
         for name in names:
             if name not in known:

@@ -70,6 +70,9 @@ class RunResult:
         self_collision: ``(T,)`` exact self-collision flag (two of the arm's own links touch).
         self_pair: ``(T,)`` index in :attr:`self_pairs` of the nearest link pair at each step (``-1``: none).
         self_pairs: the link pairs ``(a, b)`` the exact check measured (``a`` nearer the base).
+        observations: ``(T,)`` observed obstacles (a scenario's ``[sensing]``): the observations delivered to the
+            controller before each step (:mod:`previewctl.sim.sensor`); 0 without sensing.
+        observations_dropped: the observations due by the last step that the sensor dropped.
     """
 
     scenario: str
@@ -107,6 +110,8 @@ class RunResult:
     self_collision: NDArray[np.bool_]
     self_pair: NDArray[np.int64]
     self_pairs: tuple[tuple[str, str], ...]
+    observations: NDArray[np.int64]
+    observations_dropped: int
 
     @property
     def steps(self) -> int:
@@ -151,7 +156,8 @@ class RunResult:
         ``cycle_p50``, ``cycle_p99``, ``cycle_max`` [s], ``deadline_misses`` (the cycles longer than ``dt``: each
         missed the next deadline), and of background planning ``plan_age_p95`` [s] (``None`` without a result in
         use, e.g. inline) and ``fallback_fraction`` (the fraction of cycles that ran the ``qp`` law instead; 0
-        inline).
+        inline); ``observations`` and ``observations_dropped``: observations delivered to the controller and dropped
+        by the simulator's sensor (0 without ``[sensing]``).
         """
         k, s, e = self.collision_index, self.self_collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))
@@ -193,6 +199,8 @@ class RunResult:
             "execution": self.execution,
             "composition": self.composition,
             "max_slack": float(self.slack.max()) if self.steps else 0.0,
+            "observations": int(self.observations.sum()),
+            "observations_dropped": self.observations_dropped,
             **self._timing(),
         }
 
@@ -262,12 +270,13 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
 
 def _added_later(steps: int, cycle_time: NDArray[Any]) -> dict[str, NDArray[Any]]:
     """The members a log written by an older previewctl lacks, as that run had them: no self pair measured, no
-    composition recorded (an empty text), inline planning, and no whole cycle timed (taken as its control cycle,
-    ``cycle_time``, a lower bound)."""
+    composition recorded (an empty text), inline planning, no whole cycle timed (taken as its control cycle,
+    ``cycle_time``, a lower bound), and no observation."""
     return {"loop_time": cycle_time, "plan_age": np.full(steps, np.nan), "fallback": np.zeros(steps, dtype=bool),
             "self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
             "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str),
-            "composition": np.array("")}
+            "composition": np.array(""), "observations": np.zeros(steps, dtype=np.int64),
+            "observations_dropped": np.array(0)}
 
 
 def _stored(value: object) -> NDArray[Any]:
@@ -282,6 +291,8 @@ def _restored(stored: NDArray[Any], kind: object) -> Any:
         return str(stored)
     if kind is float:
         return float(stored)
+    if kind is int:
+        return int(stored)
     if kind == tuple[str, ...]:
         return tuple(str(n) for n in stored)
     if kind == tuple[tuple[str, str], ...]:

@@ -13,9 +13,10 @@ wall time since the start with ``rate``, real time):
    cylinders, and no self pairs);
 3. a collision, with an obstacle or with itself, stops the run there (unless ``stop_on_collision=False``); the
    colliding step is the last row of the log, with ``q̇ = 0``;
-4. the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with ``time.perf_counter`` (``cycle_time``),
-   and so is the whole cycle from its deadline: the clock's wake-up latency, steps 1-4 and the logging
-   (``loop_time``: longer than ``dt``, the cycle missed the next deadline);
+4. with a ``[sensing]`` table, the observations due by ``t_k`` are delivered (``controller.observe``, the sensor of
+   :mod:`previewctl.sim.sensor`); then the control cycle, ``q̇ = controller.step(q, t_k, dt)``, is timed with
+   ``time.perf_counter`` (``cycle_time``), and so is the whole cycle from its deadline: the clock's wake-up
+   latency, steps 1-4 and the logging (``loop_time``: longer than ``dt``, the cycle missed the next deadline);
    the controller runs a GA generation when ``t_k`` enters a new camera frame
    (:class:`~previewctl.control.controller.Controller`).
 
@@ -44,6 +45,7 @@ from previewctl.robot.model import Robot
 from previewctl.sim.clock import Tick, simulated_ticks, wall_ticks
 from previewctl.sim.log import RunResult
 from previewctl.sim.scenario import Scenario, Verdict
+from previewctl.sim.sensor import Sensor
 from previewctl.sim.start import check_start
 from previewctl.sim.start import exact_evaluator as exact_evaluator_of
 from previewctl.types import Array, IntArray
@@ -122,11 +124,13 @@ def simulate(
         controller = make_controller(scenario, name=name, seed=seed, dt=dt, planning=planning)
     robot, links = scenario.robot, exact_evaluator.robot.guarded_links
     log = _Log(steps + 1, dt, robot, links, exact_evaluator.robot.self_pairs.pair_links)
+    sensor = None if scenario.sensing is None else Sensor(scenario.scene, scenario.sensing, steps * dt,
+                                                          robot.task == "planar")
     try:
         if rate is not None:
             _wait_for_planning(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
-        count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision)
+        count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
             controller.close()
@@ -143,6 +147,7 @@ def simulate(
         execution=controller.execution.name,
         composition=str(controller.describe()),
         self_pairs=exact_evaluator.robot.self_pairs.links,
+        observations_dropped=0 if sensor is None else sensor.dropped_by(float(log.columns["t"][count - 1])),
         **log.arrays(count),
     )
 
@@ -176,8 +181,10 @@ def _run(
     ticks: Iterable[Tick],
     progress: Progress | None,
     stop_on_collision: bool,
+    sensor: Sensor | None,
 ) -> int:
-    """Step the loop over the clock's ``ticks``, filling ``log``; the number of rows logged."""
+    """Step the loop over the clock's ``ticks``, filling ``log``, the ``sensor``'s observations (if any) delivered
+    before each step; the number of rows logged."""
     dt, steps = log.period, log.rows - 1
     q = np.array(scenario.q0, dtype=float)
     qdot: Array | None = None
@@ -192,6 +199,8 @@ def _run(
             if progress is not None:
                 progress(1.0, t)
             return row + 1
+        if sensor is not None:
+            log.columns["observations"][row] = sensor.deliver(controller, t)
         step_start = time.perf_counter()
         qdot = controller.step(q, t, dt)
         log.columns["cycle_time"][row] = time.perf_counter() - step_start
@@ -250,6 +259,7 @@ class _Log:
             "self_distance": np.full(rows, np.inf),
             "self_collision": np.zeros(rows, dtype=bool),
             "self_pair": np.full(rows, -1, dtype=np.int64),
+            "observations": np.zeros(rows, dtype=np.int64),
         }
         self.targets: Array | None = None  # (rows, p, nq) once the controller reports its imaginary arms
         self.target_S: Array | None = None
