@@ -341,6 +341,8 @@ def test_local_cluster_workers_keep_freed_memory_and_dasks_thread_settings() -> 
     (["--scene-seed", "-2"], "scene_seed must be >= 0, got -2"),
     (["--controller", "none,fancy"], "unknown controller 'fancy'; valid: none, qp, gradient"),
     (["--execution", "lp"], "unknown execution mode 'lp'; valid: "),
+    (["--sensing", "none,seen"], "unknown sensing 'seen'; valid: none, observed"),
+    (["--motions", "wild"], "motions = 'wild' is not valid; valid: constant, surprise"),
 ])
 def test_bench_bad_input_is_one_line_and_exit_2(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]

@@ -84,19 +84,6 @@ def test_bench_help_names_the_sensing_and_motion_flags(capsys: pytest.CaptureFix
     assert "--motions KIND" in text and "constant, surprise" in text
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--sensing", "none,seen"], "unknown sensing 'seen'; valid: none, observed"),
-    (["--motions", "wild"], "motions = 'wild' is not valid; valid: constant, surprise"),
-])
-def test_bench_bad_sensing_or_motions_is_one_line_and_exit_2(
-    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    assert main(["bench", *argv, "--out", str(tmp_path)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and message in err
-    assert list(tmp_path.iterdir()) == []
-
-
 def test_a_tiny_observed_sweep_of_surprise_scenes_end_to_end(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
