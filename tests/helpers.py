@@ -1,5 +1,6 @@
 """Plain helpers the test modules share: rotations, a planar4 scenario document, a scenario under the paper's
-eq. 19, a random URDF chain, a control state made by hand and eq. 19 executed by the pseudo-inverse.
+eq. 19, a random URDF chain, a control state made by hand, eq. 19 executed by the pseudo-inverse, and a child
+process that Ctrl-C can interrupt.
 
 Fixtures live in ``conftest.py``; functions that tests call directly live here and are imported as
 ``from helpers import rot_z`` (pytest puts ``tests/`` on ``sys.path``).
@@ -8,6 +9,7 @@ Fixtures live in ``conftest.py``; functions that tests call directly live here a
 from __future__ import annotations
 
 import dataclasses
+import signal
 from collections.abc import Callable
 from typing import Any
 
@@ -191,3 +193,11 @@ def arm_urdf(joints: tuple[tuple[str, float], ...] = ARM7_JOINTS, name: str = "a
     parts += [f'  <joint name="tool" type="fixed"><parent link="{parent}"/><child link="tool0"/>',
               '    <origin xyz="0 0 0.1"/></joint>', '  <link name="tool0"/>', "</robot>"]
     return "\n".join(parts) + "\n"
+
+
+def interruptible() -> None:
+    """``subprocess.Popen(..., preexec_fn=interruptible)``: the child starts with SIGINT at its default, as under a
+    terminal's Ctrl-C. A session started as a background job of a non-interactive shell (``pytest &`` in a script)
+    has SIGINT ignored, every child inherits that through ``exec``, and a Python started so never raises
+    ``KeyboardInterrupt``: a test of Ctrl-C would then wait for an interrupt that cannot come."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import interruptible
 from numpy.typing import NDArray
 
 import previewctl as pc
@@ -333,7 +334,8 @@ def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
     script.write_text(LOOP)
     scene = Path(__file__).resolve().parent.parent / "scenarios" / "paper_fitted.toml"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    loop = subprocess.Popen([sys.executable, str(script), str(scene)], stdout=subprocess.PIPE, text=True, env=env)
+    loop = subprocess.Popen([sys.executable, str(script), str(scene)], stdout=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=interruptible)
     try:
         assert loop.stdout is not None
         pid = int(loop.stdout.readline())

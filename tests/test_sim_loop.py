@@ -19,7 +19,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import planar_doc, tiny_planar_toml
+from helpers import interruptible, planar_doc, tiny_planar_toml
 
 from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
@@ -586,7 +586,7 @@ def test_ctrl_c_during_a_real_time_run_exits_130_and_leaves_no_child(tmp_path: P
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     run = subprocess.Popen([sys.executable, "-m", "previewctl", "run", str(scenario), "--realtime", "--out",
                             str(tmp_path / "o")], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                           env=env)
+                           env=env, preexec_fn=interruptible)
     try:
         deadline = time.monotonic() + 60.0
         while not (workers := [p for p in children(run.pid)
