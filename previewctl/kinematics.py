@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.errors import ConfigurationError
+from previewctl.robot.compiled_kinematics import CompiledKinematics
 from previewctl.robot.model import Robot
 from previewctl.types import Array, IntArray
 from previewctl.validation import show
@@ -72,14 +73,19 @@ class FrameKinematics:
         data: the ``Data`` to fill (one is created if ``None``).
         joints: joints whose placements are wanted as well (:attr:`joint_placements`), read on the same pass
             (those that also carry a followed frame are read once).
+        compiled: compute the placements and ``data.J`` of a whole batch in one compiled call
+            (:mod:`~previewctl.robot.compiled_kinematics`, equal to Pinocchio's to rounding) when the model allows it
+            and no ``after_each`` needs ``data``; for the searches' large batches.
     """
 
     def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None,
-                 joints: Sequence[int] = ()) -> None:
+                 joints: Sequence[int] = (), compiled: bool = False) -> None:
         self.model = model
+        self._compiled = CompiledKinematics.of(model) if compiled else None
         self.data = model.createData() if data is None else data
         parents = [int(model.frames[f].parentJoint) for f in frame_ids]
         followed = sorted(set(parents) | {int(j) for j in joints})
+        self._followed = np.array(followed, dtype=int)
         self._slot = np.array([followed.index(j) for j in parents], dtype=int)
         self._joint_slot = np.array([followed.index(int(j)) for j in joints], dtype=int)
         offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
@@ -106,8 +112,34 @@ class FrameKinematics:
             after_each: called as ``after_each(data)`` once the joint placements of each configuration
                 are in ``data``, in batch order (the scene uses it to compute distances on the same pass).
         """
+        model, B, K = self.model, Q.shape[0], len(self._slot)
+        if self._compiled is not None and after_each is None:
+            every, J = self._compiled.joint_jacobians(Q)
+            frames = every[:, self._followed]
+        else:
+            frames, J = self._pinocchio(Q, after_each)
+        self.joint_placements = frames[:, self._joint_slot]  # a copy (fancy index), before the offsets below
+        if self._regroup:
+            frames = frames[:, self._slot]
+        if self._moved.size:
+            frames[:, self._moved] = frames[:, self._moved] @ self._offset
+        # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
+        # matrix product for all frames of a configuration, then the support mask
+        cross = np.zeros((B, K, 9))
+        cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
+        jacobians = np.empty((B, K, 6, model.nv))
+        jacobians[:, :, :3] = (cross.reshape(B, 3 * K, 3) @ J[:, 3:]).reshape(B, K, 3, model.nv)
+        jacobians[:, :, :3] += J[:, None, :3]
+        jacobians[:, :, 3:] = J[:, None, 3:]
+        if self._partial_support:
+            jacobians *= self._support
+        return frames, jacobians
+
+    def _pinocchio(self, Q: Array, after_each: Callable[[pin.Data], None] | None) -> tuple[Array, Array]:
+        """Placements ``(B, F, 4, 4)`` of the followed joints and world joint Jacobians ``(B, 6, nv)``, one Pinocchio
+        call per configuration."""
         model, data, joint_J, placements = self.model, self.data, self._joint_J, self._placements
-        B, K = Q.shape[0], len(self._slot)
+        B = Q.shape[0]
         joint_jacobians, homogeneous = [], []  # appended, stacked once: cheaper than B x S row writes
         for q in Q:
             pin.computeJointJacobians(model, data, q)
@@ -119,23 +151,7 @@ class FrameKinematics:
         frames = np.array(homogeneous).reshape(B, len(placements), 4, 4)
         if self._universe:
             frames = np.concatenate([np.broadcast_to(np.eye(4), (B, 1, 4, 4)), frames], axis=1)
-        self.joint_placements = frames[:, self._joint_slot]  # a copy (fancy index), before the offsets below
-        if self._regroup:
-            frames = frames[:, self._slot]
-        if self._moved.size:
-            frames[:, self._moved] = frames[:, self._moved] @ self._offset
-        # a frame at p moves with joint column (v, w) as v + w x p = v + C(p) w, C(p) = -[p]x: one
-        # matrix product for all frames of a configuration, then the support mask
-        J = np.array(joint_jacobians).reshape(B, 6, model.nv)
-        cross = np.zeros((B, K, 9))
-        cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
-        jacobians = np.empty((B, K, 6, model.nv))
-        jacobians[:, :, :3] = (cross.reshape(B, 3 * K, 3) @ J[:, 3:]).reshape(B, K, 3, model.nv)
-        jacobians[:, :, :3] += J[:, None, :3]
-        jacobians[:, :, 3:] = J[:, None, 3:]
-        if self._partial_support:
-            jacobians *= self._support
-        return frames, jacobians
+        return frames, np.array(joint_jacobians).reshape(B, 6, model.nv)
 
 
 def kinematics(
@@ -168,10 +184,11 @@ def kinematics(
     )
 
 
-def kinematics_reader(robot: Robot, data: pin.Data | None = None, joints: Sequence[int] = ()) -> FrameKinematics:
+def kinematics_reader(robot: Robot, data: pin.Data | None = None, joints: Sequence[int] = (),
+                      compiled: bool = False) -> FrameKinematics:
     """The :class:`FrameKinematics` of :func:`kinematics`: the control points, then the tip (and the placements of
-    ``joints``, :attr:`Kinematics.joint_placements`)."""
-    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data, joints)
+    ``joints``, :attr:`Kinematics.joint_placements`); ``compiled`` as there."""
+    return FrameKinematics(robot.model, (*robot.control_frame_ids, robot.tip_frame_id), data, joints, compiled)
 
 
 def hand_placement(robot: Robot, q: Array, data: pin.Data) -> tuple[Array, Array]:

@@ -112,7 +112,7 @@ class Evaluator:
         self._self = self.clearance.self_clearance
         # the reader also reads the placements of the joints that carry self or guarded geometry, for their bounds
         joints = sorted(set(self._self.joints) | set(self.clearance.joints))
-        self._kinematics = kinematics_reader(robot, self.data, joints)
+        self._kinematics = kinematics_reader(robot, self.data, joints, compiled=True)
         self._self_slots = np.array([joints.index(j) for j in self._self.joints], dtype=int)
         self._guarded_slots = np.array([joints.index(j) for j in self.clearance.joints], dtype=int)
         self._planar_arm = (

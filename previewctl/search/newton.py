@@ -9,6 +9,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from previewctl.errors import ConfigurationError
+from previewctl.robot.compiled_kinematics import CompiledKinematics
 from previewctl.robot.model import Robot
 from previewctl.search.redundancy import Target, check_genes, parse_target, wrap_angle
 from previewctl.types import Array
@@ -64,6 +65,9 @@ class NewtonRedundancy:
         self.rows = robot.task_rows
         self.m = self.rows.stop - self.rows.start
         self.tip_id = robot.tip_frame_id
+        self._compiled = CompiledKinematics.of(self.model)
+        tip = self.model.frames[self.tip_id]
+        self._tip_joint, self._tip_offset = int(tip.parentJoint), np.array(tip.placement.homogeneous)
         facts = robot.joints
         # genes: the bounded coordinates between their limits (clipped), every other one an angle (wrapped)
         self.periodic = ~facts.bounded
@@ -95,10 +99,11 @@ class NewtonRedundancy:
     def _hand(self, Q: Array) -> tuple[Array, Array]:
         """Hand placements ``(A, 4, 4)`` and world-aligned Jacobians ``(A, 6, nv)`` (linear rows first).
 
-        One ``computeFrameJacobian`` per row: for the hand frame alone this beats the batched assembly
-        of :class:`~previewctl.kinematics.FrameKinematics`, whose fixed numpy cost dominates the small
-        batches of the late Newton passes.
+        The whole batch in one compiled call (:mod:`~previewctl.robot.compiled_kinematics`) where the model allows
+        it, else one ``computeFrameJacobian`` per row.
         """
+        if self._compiled is not None:
+            return self._compiled.frame_jacobian(Q, self._tip_joint, self._tip_offset)
         model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement
         jacobians, placements = [], []
         for q in Q:
