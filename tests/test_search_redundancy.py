@@ -304,3 +304,36 @@ def test_score_evaluates_only_reachable_and_matches_evaluator(planar4: Robot) ->
     assert np.array_equal(scored.collision[scored.reachable], direct.collision[scored.reachable])
     assert np.all(scored.S[~scored.reachable] == ev.potential.collision_value)
     assert np.array_equal(scored.S < 0, ~scored.reachable | scored.collision)
+
+
+@pytest.mark.parametrize(("name", "task"), [("planar4", None), ("panda", None), ("ur5", "pose")])
+def test_newton_step_is_the_damped_least_squares_step_with_frozen_limits(name: str, task: str | None) -> None:
+    """The compiled step against its formula in numpy, for tasks of 2, 3 and 6 rows: ``e`` clamped to ``max_step``,
+    ``λ² = d² clip(|e| / max_step, 1e-3, 1)``, ``Jᵀ (J Jᵀ + λ² I)⁻¹ e``, again without the columns of joints at a
+    limit pushed further."""
+    robot = load_robot(name) if task is None else load_robot(name, task=task)
+    red = NewtonRedundancy(robot)
+    m = red.m
+    rng = np.random.default_rng(m)
+    J = rng.normal(size=(40, m, robot.nv))
+    err = rng.normal(size=(40, m)) * rng.choice([0.01, 1.0], size=(40, 1))  # within and beyond max_step
+    Q = robot.random_configurations(rng, 40)
+    at_limit = rng.random(Q.shape) < 0.3
+    Q = np.where(at_limit, np.where(rng.random(Q.shape) < 0.5, robot.lower_limits, robot.upper_limits), Q)
+    step = red._step(J, err, Q)
+
+    def reference(Jb: np.ndarray, e: np.ndarray) -> np.ndarray:
+        norm = np.linalg.norm(e[: min(m, 3)])
+        e = e * min(1.0, red.max_step / norm)
+        damping = red.damping**2 * np.clip(np.linalg.norm(e[: min(m, 3)]) / red.max_step, 1e-3, 1.0)
+        return Jb.T @ np.linalg.solve(Jb @ Jb.T + damping * np.eye(m), e)
+
+    frozen_rows = 0
+    for b in range(40):
+        free = reference(J[b], err[b])
+        pushed = (Q[b] <= robot.lower_limits + 1e-9) & (free < 0) | (Q[b] >= robot.upper_limits - 1e-9) & (free > 0)
+        frozen_rows += pushed.any()
+        expected = reference(J[b] * ~pushed, err[b]) if pushed.any() else free
+        np.testing.assert_allclose(step[b], expected, rtol=1e-8, atol=1e-12)
+        assert not np.any(step[b][pushed])
+    assert frozen_rows > 5  # the frozen case is exercised

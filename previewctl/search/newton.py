@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
@@ -79,7 +80,6 @@ class NewtonRedundancy:
         self._q_lower = facts.lower[self._clip_v]
         self._q_upper = facts.upper[self._clip_v]
         self._lower_margin, self._upper_margin = self._q_lower + 1e-9, self._q_upper - 1e-9
-        self._eye = np.eye(self.m)
 
     # ------------------------------------------------------------------ genes <-> configurations
 
@@ -134,22 +134,13 @@ class NewtonRedundancy:
         return Q
 
     def _step(self, J: Array, err: Array, Q: Array) -> Array:
-        """Damped least-squares steps ``(A, nv)``; joints at a limit that the step pushes further are frozen."""
-        JT = np.ascontiguousarray(np.swapaxes(J, 1, 2))
-        ratio = np.minimum(np.maximum(_row_norm(err[:, :3] if self.m >= 3 else err) / self.max_step, 1e-3), 1.0)
-        eye = (self.damping**2 * ratio)[:, None, None] * self._eye
-        step = (JT @ np.linalg.solve(J @ JT + eye, err[..., None]))[..., 0]
-        if not self._clip.size:
-            return step
-        q, pushed = Q[:, self._clip], step[:, self._clip_v]
-        blocked_v = ((q <= self._lower_margin) & (pushed < 0)) | ((q >= self._upper_margin) & (pushed > 0))
-        rows = blocked_v.any(axis=1)
-        if rows.any():
-            free = np.ones((int(rows.sum()), J.shape[2]))
-            free[:, self._clip_v] = ~blocked_v[rows]
-            Jf = J[rows] * free[:, None, :]
-            JfT = np.ascontiguousarray(np.swapaxes(Jf, 1, 2))
-            step[rows] = (JfT @ np.linalg.solve(Jf @ JfT + eye[rows], err[rows][..., None]))[..., 0]
+        """Damped least-squares steps ``(A, nv)`` toward task errors ``err`` ``(A, m)`` (clamped to ``max_step``);
+        joints at a limit that the step pushes further are frozen (module docstring of
+        :mod:`~previewctl.search.redundancy`)."""
+        step = np.empty((J.shape[0], J.shape[2]))
+        _damped_steps(np.ascontiguousarray(J), np.ascontiguousarray(err), np.ascontiguousarray(Q[:, self._clip]),
+                      self._clip_v, self._lower_margin, self._upper_margin, self.damping**2, self.max_step,
+                      min(self.m, 3), step)
         return step
 
     def solve(
@@ -221,7 +212,7 @@ class NewtonRedundancy:
             if Q.shape[0] != G.shape[0]:
                 raise ConfigurationError(f"q_seed has {Q.shape[0]} rows, genes {G.shape[0]}")
             Q = Q.copy()
-        B, m = G.shape[0], self.m
+        B = G.shape[0]
         model = self.model
         active = np.arange(B)
         reachable = np.zeros(B, dtype=bool)
@@ -240,8 +231,6 @@ class NewtonRedundancy:
             active, J, err = active[keep], J[keep], err[keep]
             if active.size == 0 or iteration == self.iterations:
                 break
-            norm = _row_norm(err[:, :3] if m >= 3 else err)[:, None]
-            err = err * np.minimum(1.0, self.max_step / np.maximum(norm, 1e-300))
             step = self._step(J, err, Q[active])
             if self._vector_space:
                 Q[active] = self._clip_limits(Q[active] + step)
@@ -255,3 +244,68 @@ def _row_norm(x: Array) -> Array:
     """Euclidean norm of each row of ``(A, k)`` (what ``np.linalg.norm(x, axis=1)`` computes, with
     less overhead: this runs several times per Newton step on small batches)."""
     return np.asarray(np.sqrt(np.add.reduce(x * x, axis=1)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _damped_steps(J: Array, err: Array, q: Array, clip_v: Array, lower: Array, upper: Array, damping2: float,
+                  max_step: float, position_rows: int, out: Array) -> None:  # pragma: no cover - compiled
+    """For each row: ``e`` = ``err`` scaled so that its first ``position_rows`` entries have norm at most
+    ``max_step``; ``λ² = damping2 · clip(|e_pos| / max_step, 1e-3, 1)``; ``out = Jᵀ (J Jᵀ + λ² I)⁻¹ e`` (Cholesky),
+    again with the columns ``clip_v`` zeroed where ``q`` sits at ``lower`` or ``upper`` and the step pushes on."""
+    A, m, nv = J.shape
+    Jf = np.empty((m, nv))
+    G = np.empty((m, m))
+    x = np.empty(m)
+    e = np.empty(m)
+    for b in range(A):
+        norm = 0.0
+        for i in range(position_rows):
+            norm += err[b, i] * err[b, i]
+        norm = np.sqrt(norm)
+        scale = min(1.0, max_step / max(norm, 1e-300))
+        for i in range(m):
+            e[i] = err[b, i] * scale
+        lam = damping2 * min(max(norm * scale / max_step, 1e-3), 1.0)
+        Jf[:] = J[b]
+        _solve_damped(Jf, e, lam, G, x, out[b])
+        blocked = False
+        for c in range(len(clip_v)):
+            v = clip_v[c]
+            if (q[b, c] <= lower[c] and out[b, v] < 0) or (q[b, c] >= upper[c] and out[b, v] > 0):
+                blocked = True
+                Jf[:, v] = 0.0
+        if blocked:
+            _solve_damped(Jf, e, lam, G, x, out[b])
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve_damped(J: Array, e: Array, lam: float, G: Array, x: Array, out: Array) -> None:  # pragma: no cover
+    """``out = Jᵀ (J Jᵀ + lam I)⁻¹ e`` for one ``(m, nv)`` Jacobian, by Cholesky (``G``, ``x``: workspaces)."""
+    m, nv = J.shape
+    for i in range(m):
+        for k in range(i + 1):
+            total = lam if i == k else 0.0
+            for j in range(nv):
+                total += J[i, j] * J[k, j]
+            G[i, k] = total
+    for i in range(m):  # G = L Lᵀ, L in the lower triangle
+        for k in range(i + 1):
+            total = G[i, k]
+            for j in range(k):
+                total -= G[i, j] * G[k, j]
+            G[i, k] = np.sqrt(total) if i == k else total / G[k, k]
+    for i in range(m):  # L y = e
+        total = e[i]
+        for j in range(i):
+            total -= G[i, j] * x[j]
+        x[i] = total / G[i, i]
+    for i in range(m - 1, -1, -1):  # Lᵀ x = y
+        total = x[i]
+        for j in range(i + 1, m):
+            total -= G[j, i] * x[j]
+        x[i] = total / G[i, i]
+    for j in range(nv):
+        total = 0.0
+        for i in range(m):
+            total += J[i, j] * x[i]
+        out[j] = total
