@@ -73,9 +73,9 @@ class FrameKinematics:
         data: the ``Data`` to fill (one is created if ``None``).
         joints: joints whose placements are wanted as well (:attr:`joint_placements`), read on the same pass
             (those that also carry a followed frame are read once).
-        compiled: compute the placements and ``data.J`` of a whole batch in one compiled call
+        compiled: compute the placements and Jacobians of a whole batch in one compiled call
             (:mod:`~previewctl.robot.compiled_kinematics`, equal to Pinocchio's to rounding) when the model allows it
-            and no ``after_each`` needs ``data``; for the searches' large batches.
+            (an ``after_each`` then gets ``data`` from ``pin.forwardKinematics``); for the searches' large batches.
     """
 
     def __init__(self, model: pin.Model, frame_ids: tuple[int, ...], data: pin.Data | None = None,
@@ -85,10 +85,12 @@ class FrameKinematics:
         self.data = model.createData() if data is None else data
         parents = [int(model.frames[f].parentJoint) for f in frame_ids]
         followed = sorted(set(parents) | {int(j) for j in joints})
-        self._followed = np.array(followed, dtype=int)
         self._slot = np.array([followed.index(j) for j in parents], dtype=int)
         self._joint_slot = np.array([followed.index(int(j)) for j in joints], dtype=int)
         offsets = [model.frames[f].placement.homogeneous for f in frame_ids]
+        # the compiled path: the frames, then the extra joints as frames at their joint's origin
+        self._frame_joints = np.array([*parents, *joints], dtype=int)
+        self._frame_offsets = np.array([*offsets, *[np.eye(4)] * len(joints)]).reshape(-1, 4, 4)
         self._moved = np.array([k for k, h in enumerate(offsets) if not np.allclose(h, np.eye(4))], dtype=int)
         self._offset = np.array(offsets).reshape(-1, 4, 4)[self._moved]
         support = support_mask(model, parents)
@@ -113,11 +115,15 @@ class FrameKinematics:
                 are in ``data``, in batch order (the scene uses it to compute distances on the same pass).
         """
         model, B, K = self.model, Q.shape[0], len(self._slot)
-        if self._compiled is not None and after_each is None:
-            every, J = self._compiled.joint_jacobians(Q)
-            frames = every[:, self._followed]
-        else:
-            frames, J = self._pinocchio(Q, after_each)
+        if self._compiled is not None:
+            if after_each is not None:  # the placements in data for it; the results from the compiled call
+                for q in Q:
+                    pin.forwardKinematics(model, self.data, q)
+                    after_each(self.data)
+            placements, jacobians = self._compiled.frames(Q, self._frame_joints, self._frame_offsets, K)
+            self.joint_placements = placements[:, K:]
+            return placements[:, :K], jacobians
+        frames, J = self._pinocchio(Q, after_each)
         self.joint_placements = frames[:, self._joint_slot]  # a copy (fancy index), before the offsets below
         if self._regroup:
             frames = frames[:, self._slot]

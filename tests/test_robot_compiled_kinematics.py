@@ -23,23 +23,24 @@ def random_configurations(model: pin.Model, rng: np.random.Generator, count: int
 
 
 def assert_matches_pinocchio(model: pin.Model, Q: np.ndarray) -> None:
-    """Every joint placement, ``data.J`` and every frame's ``LOCAL_WORLD_ALIGNED`` Jacobian and placement equal
-    Pinocchio's to :data:`TOLERANCE`."""
+    """Every joint placement (``data.oMi``) and every frame's placement (``data.oMf``) and ``LOCAL_WORLD_ALIGNED``
+    Jacobian equal Pinocchio's to :data:`TOLERANCE`, all frames asked at once."""
     compiled = CompiledKinematics.of(model)
     assert compiled is not None
     data = model.createData()
-    placements, jacobians = compiled.joint_jacobians(Q)
+    joints = np.arange(model.njoints)
+    placements, _ = compiled.frames(Q, joints, np.broadcast_to(np.eye(4), (model.njoints, 4, 4)), 0)
+    frames = list(model.frames)
+    H, J = compiled.frames(Q, np.array([f.parentJoint for f in frames]),
+                           np.array([f.placement.homogeneous for f in frames]))
     for b, q in enumerate(Q):
-        pin.computeJointJacobians(model, data, q)
-        np.testing.assert_allclose(jacobians[b], data.J, rtol=0, atol=TOLERANCE)
+        pin.framesForwardKinematics(model, data, q)
         for j in range(model.njoints):
             np.testing.assert_allclose(placements[b, j], data.oMi[j].homogeneous, rtol=0, atol=TOLERANCE)
-    for frame_id, frame in enumerate(model.frames):
-        H, J = compiled.frame_jacobian(Q, int(frame.parentJoint), frame.placement.homogeneous)
-        for b, q in enumerate(Q):
-            expected = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)
-            np.testing.assert_allclose(J[b], expected, rtol=0, atol=TOLERANCE)
-            np.testing.assert_allclose(H[b], data.oMf[frame_id].homogeneous, rtol=0, atol=TOLERANCE)
+        for k in range(len(frames)):
+            expected = pin.computeFrameJacobian(model, data, q, k, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(J[b, k], expected, rtol=0, atol=TOLERANCE)
+            np.testing.assert_allclose(H[b, k], data.oMf[k].homogeneous, rtol=0, atol=TOLERANCE)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -97,11 +98,11 @@ def test_one_revolute_joint_in_closed_form() -> None:
     assert compiled is not None
     offset = np.eye(4)
     offset[0, 3] = length
-    H, J = compiled.frame_jacobian(np.array([[theta]]), 1, offset)
+    H, J = compiled.frames(np.array([[theta]]), np.array([1]), offset[None])
     c, s = np.cos(theta), np.sin(theta)
-    np.testing.assert_allclose(H[0, :3, 3], [length * c, length * s, 0.0], atol=1e-15)
-    np.testing.assert_allclose(H[0, :2, :2], [[c, -s], [s, c]], atol=1e-15)
-    np.testing.assert_allclose(J[0, :, 0], [-length * s, length * c, 0, 0, 0, 1], atol=1e-15)
+    np.testing.assert_allclose(H[0, 0, :3, 3], [length * c, length * s, 0.0], atol=1e-15)
+    np.testing.assert_allclose(H[0, 0, :2, :2], [[c, -s], [s, c]], atol=1e-15)
+    np.testing.assert_allclose(J[0, 0, :, 0], [-length * s, length * c, 0, 0, 0, 1], atol=1e-15)
 
 
 @pytest.mark.parametrize("joint", [pin.JointModelFreeFlyer(), pin.JointModelSpherical(), pin.JointModelPlanar()])

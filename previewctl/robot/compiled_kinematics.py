@@ -99,25 +99,21 @@ class CompiledKinematics:
             nv=int(model.nv),
         )
 
-    def joint_jacobians(self, Q: Array) -> tuple[Array, Array]:
-        """Placements ``(B, N, 4, 4)`` of every joint (``data.oMi``) and world joint Jacobians ``(B, 6, nv)`` (linear
-        rows first, ``data.J``) of configurations ``(B, nq)``."""
+    def frames(self, Q: Array, joints: IntArray, offsets: Array, with_jacobian: int | None = None
+               ) -> tuple[Array, Array]:
+        """World placements ``(B, K, 4, 4)`` and ``LOCAL_WORLD_ALIGNED`` Jacobians ``(B, K', 6, nv)`` (linear rows
+        first; zero in the columns of joints that do not carry the frame) of ``K`` frames at configurations
+        ``(B, nq)``: frame ``k`` at ``offsets[k]`` ``(4, 4)`` in joint ``joints[k]``'s frame. What
+        ``pin.computeFrameJacobian`` and ``data.oMf`` give, for every frame and configuration at once; only the first
+        ``K' = with_jacobian`` frames (default: all) get a Jacobian."""
         Q = np.ascontiguousarray(Q, dtype=float)
-        placements = np.empty((Q.shape[0], len(self.parent), 4, 4))
-        jacobians = np.empty((Q.shape[0], 6, self.nv))
-        _joint_jacobians(Q, self.parent, self.kind, self.axis, self.rotation, self.translation, self.idx_q,
-                         self.idx_v, placements, jacobians)
-        return placements, jacobians
-
-    def frame_jacobian(self, Q: Array, joint: int, offset: Array) -> tuple[Array, Array]:
-        """Placements ``(B, 4, 4)`` and ``LOCAL_WORLD_ALIGNED`` Jacobians ``(B, 6, nv)`` (linear rows first) of the
-        frame at ``offset`` ``(4, 4)`` in joint ``joint``'s frame, for configurations ``(B, nq)`` (what
-        ``pin.computeFrameJacobian`` returns, for the whole batch)."""
-        Q = np.ascontiguousarray(Q, dtype=float)
-        placements = np.empty((Q.shape[0], 4, 4))
-        jacobians = np.empty((Q.shape[0], 6, self.nv))
-        _frame_jacobian(Q, self.parent, self.kind, self.axis, self.rotation, self.translation, self.idx_q,
-                        self.idx_v, int(joint), np.ascontiguousarray(offset, dtype=float), placements, jacobians)
+        K = len(joints)
+        count = K if with_jacobian is None else with_jacobian
+        placements = np.empty((Q.shape[0], K, 4, 4))
+        jacobians = np.empty((Q.shape[0], count, 6, self.nv))
+        _frames(Q, self.parent, self.kind, self.axis, self.rotation, self.translation, self.idx_q, self.idx_v,
+                np.asarray(joints, dtype=np.int64), np.ascontiguousarray(offsets, dtype=float).reshape(K, 4, 4),
+                placements, jacobians)
         return placements, jacobians
 
 
@@ -192,54 +188,35 @@ def _column(kind: int, R: Array, p: Array, a: Array, at: Array, out: Array) -> N
 
 
 @numba.njit(cache=True, nogil=True)
-def _joint_jacobians(Q: Array, parent: IntArray, kind: IntArray, axis: Array, rotation: Array, translation: Array,
-                     idx_q: IntArray, idx_v: IntArray, placements: Array,
-                     jacobians: Array) -> None:  # pragma: no cover - compiled
-    count = len(parent)
-    R, p = np.empty((count, 3, 3)), np.empty((count, 3))
-    base, M, x = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
-    origin, column = np.zeros(3), np.empty(6)
-    for b in range(Q.shape[0]):
-        _forward(Q[b], parent, kind, axis, rotation, translation, idx_q, R, p, base, M, x)
-        for j in range(count):
-            H = placements[b, j]
-            for i in range(3):
-                for k in range(3):
-                    H[i, k] = R[j, i, k]
-                H[i, 3] = p[j, i]
-                H[3, i] = 0.0
-            H[3, 3] = 1.0
-        for j in range(1, count):
-            _column(kind[j], R[j], p[j], axis[j], origin, column)
-            for i in range(6):
-                jacobians[b, i, idx_v[j]] = column[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def _frame_jacobian(Q: Array, parent: IntArray, kind: IntArray, axis: Array, rotation: Array, translation: Array,
-                    idx_q: IntArray, idx_v: IntArray, joint: int, offset: Array, placements: Array,
-                    jacobians: Array) -> None:  # pragma: no cover - compiled
+def _frames(Q: Array, parent: IntArray, kind: IntArray, axis: Array, rotation: Array, translation: Array,
+            idx_q: IntArray, idx_v: IntArray, joints: IntArray, offsets: Array, placements: Array,
+            jacobians: Array) -> None:  # pragma: no cover - compiled
     count = len(parent)
     R, p = np.empty((count, 3, 3)), np.empty((count, 3))
     base, M, x = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
     Rf, pf, column = np.empty((3, 3)), np.empty(3), np.empty(6)
-    offset_R, offset_p = np.ascontiguousarray(offset[:3, :3]), np.ascontiguousarray(offset[:3, 3])
+    offset_R = np.ascontiguousarray(offsets[:, :3, :3])
+    offset_p = np.ascontiguousarray(offsets[:, :3, 3])
     for b in range(Q.shape[0]):
         _forward(Q[b], parent, kind, axis, rotation, translation, idx_q, R, p, base, M, x)
-        _mul(R[joint], offset_R, Rf)
-        _apply(R[joint], offset_p, pf)
-        H = placements[b]
-        for i in range(3):
-            pf[i] += p[joint, i]
-            for k in range(3):
-                H[i, k] = Rf[i, k]
-            H[i, 3] = pf[i]
-            H[3, i] = 0.0
-        H[3, 3] = 1.0
-        jacobians[b] = 0.0
-        j = joint
-        while j > 0:  # the joints that carry the frame
-            _column(kind[j], R[j], p[j], axis[j], pf, column)
-            for i in range(6):
-                jacobians[b, i, idx_v[j]] = column[i]
-            j = parent[j]
+        for f in range(len(joints)):
+            joint = joints[f]
+            _mul(R[joint], offset_R[f], Rf)
+            _apply(R[joint], offset_p[f], pf)
+            H = placements[b, f]
+            for i in range(3):
+                pf[i] += p[joint, i]
+                for k in range(3):
+                    H[i, k] = Rf[i, k]
+                H[i, 3] = pf[i]
+                H[3, i] = 0.0
+            H[3, 3] = 1.0
+            if f >= jacobians.shape[1]:
+                continue
+            jacobians[b, f] = 0.0
+            j = joint
+            while j > 0:  # the joints that carry the frame
+                _column(kind[j], R[j], p[j], axis[j], pf, column)
+                for i in range(6):
+                    jacobians[b, f, i, idx_v[j]] = column[i]
+                j = parent[j]

@@ -68,7 +68,7 @@ class NewtonRedundancy:
         self.tip_id = robot.tip_frame_id
         self._compiled = CompiledKinematics.of(self.model)
         tip = self.model.frames[self.tip_id]
-        self._tip_joint, self._tip_offset = int(tip.parentJoint), np.array(tip.placement.homogeneous)
+        self._tip_joint, self._tip_offset = np.array([tip.parentJoint]), np.array([tip.placement.homogeneous])
         facts = robot.joints
         # genes: the bounded coordinates between their limits (clipped), every other one an angle (wrapped)
         self.periodic = ~facts.bounded
@@ -103,7 +103,8 @@ class NewtonRedundancy:
         it, else one ``computeFrameJacobian`` per row.
         """
         if self._compiled is not None:
-            return self._compiled.frame_jacobian(Q, self._tip_joint, self._tip_offset)
+            placements, jacobians = self._compiled.frames(Q, self._tip_joint, self._tip_offset)
+            return placements[:, 0], jacobians[:, 0]
         model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement
         jacobians, placements = [], []
         for q in Q:
