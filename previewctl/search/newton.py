@@ -103,8 +103,8 @@ class NewtonRedundancy:
         it, else one ``computeFrameJacobian`` per row.
         """
         if self._compiled is not None:
-            placements, jacobians = self._compiled.frames(Q, self._tip_joint, self._tip_offset)
-            return placements[:, 0], jacobians[:, 0]
+            H, J = self._compiled.frames(Q, self._tip_joint, self._tip_offset)
+            return H[:, 0], J[:, 0]
         model, data, frame, placement = self.model, self.data, self.tip_id, self._hand_placement
         jacobians, placements = [], []
         for q in Q:
