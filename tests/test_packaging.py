@@ -99,6 +99,6 @@ def test_the_wheel_declares_a_lean_core_and_the_extras(dist: Path) -> None:
         metadata = archive.read("previewctl-0.1.0.dist-info/METADATA").decode()
     requires = [line.split(": ", 1)[1] for line in metadata.splitlines() if line.startswith("Requires-Dist: ")]
     core = sorted(r.split(">")[0].split(";")[0].strip() for r in requires if "extra ==" not in r)
-    assert core == ["coal", "daqp", "numpy", "pin", "pydantic", "qpsolvers", "tomli", "tqdm"]
+    assert core == ["coal", "daqp", "numba", "numpy", "pin", "pydantic", "qpsolvers", "tomli", "tqdm"]
     extras = [line.split(": ", 1)[1] for line in metadata.splitlines() if line.startswith("Provides-Extra: ")]
     assert {"viz", "bench", "robots", "all", "test", "dev"} <= set(extras)
