@@ -13,7 +13,7 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import kinematics
 from previewctl.robot.model import Geometry, Robot
 from previewctl.scene.clearance import Clearance
-from previewctl.scene.self_clearance import SelfClearance
+from previewctl.scene.self_clearance import _DIRECTIONS, SelfClearance
 from previewctl.scene.shapes import Scene
 from previewctl.types import Array
 
@@ -106,3 +106,29 @@ def test_batch_nearest_is_exact_below_the_influence_distance_and_a_bound_above(p
             assert within <= result.self_distance[b] <= exact.min()
     np.testing.assert_array_equal(result.self_collision, result.self_distance <= 0.0)
     assert 10 < close < 190
+
+
+def test_compiled_bounds_equal_their_formulas_in_numpy(panda: Robot) -> None:
+    """Step 1 (spheres) and step 2 (DOP against capsule) over random joint placements, against the formulas of the
+    module docstring written in numpy."""
+    clearance = SelfClearance(panda)
+    rng = np.random.default_rng(8)
+    count = len(clearance.joints)
+    placements = np.zeros((20, count, 4, 4))
+    for b in range(20):
+        for j in range(count):
+            placements[b, j] = pin.SE3.Random().homogeneous
+    carried = placements[:, clearance._slot]
+    centres = np.einsum("bgij,gj->bgi", carried[..., :3, :3], clearance._centres) + carried[..., :3, 3]
+    gap = centres[:, clearance._a] - centres[:, clearance._b]
+    np.testing.assert_allclose(clearance.bounds(placements), np.linalg.norm(gap, axis=2) - clearance._reach,
+                               rtol=0, atol=1e-12)
+    rows, pairs = rng.integers(0, 20, 50), rng.integers(0, len(clearance), 50)
+    held = placements[rows, clearance._dop_slot[pairs]]
+    other = placements[rows, clearance._capsule_slot[pairs]]
+    world = np.einsum("cij,cej->cei", other[:, :3, :3], clearance._capsule_ends[pairs]) + other[:, None, :3, 3]
+    local = np.einsum("cji,cej->cei", held[:, :3, :3], world - held[:, None, :3, 3])
+    along = local @ _DIRECTIONS.T  # (C, 2, 26)
+    expected = (np.minimum(along[:, 0], along[:, 1]) - clearance._dop_support[pairs]).max(axis=1)
+    np.testing.assert_allclose(clearance.refine(placements, rows, pairs), expected - clearance._capsule_radius[pairs],
+                               rtol=0, atol=1e-12)

@@ -30,6 +30,7 @@ import warnings
 from dataclasses import dataclass
 
 import coal
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -44,7 +45,6 @@ _DIRECTIONS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k 
                         if (i, j, k) != (0, 0, 0)], dtype=float)
 _DIRECTIONS /= np.linalg.norm(_DIRECTIONS, axis=1)[:, None]
 """The 26 unit directions of the DOP covers (axes, face and body diagonals)."""
-_DIRECTIONS_T = np.ascontiguousarray(_DIRECTIONS.T)
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,7 @@ class SelfClearance:
             ends.append([placement.act(-half), placement.act(half)])
             radii.append(radius + rho)
             supports.append((points @ _DIRECTIONS.T).max(axis=0) + rho)
-        self._centres = np.hstack([np.array(centres).reshape(-1, 3), np.ones((len(objects), 1))])[:, :, None]
+        self._centres = np.array(centres).reshape(-1, 3)
         self._reach = np.array(spheres)[self._a] + np.array(spheres)[self._b] + BOUND_SLACK
         # step 2 per pair: the DOP of the geometry with the larger capsule, the capsule of the other
         capsule_radius = np.array(radii)
@@ -180,15 +180,17 @@ class SelfClearance:
     def bounds(self, placements: Array) -> Array:
         """Lower bounds ``(B, P)`` [m] of the pair distances from the joint placements ``(B, J, 4, 4)`` (the
         :meth:`joint_placements` of each configuration): step 1 of the module docstring, the spheres."""
-        centres = (placements[:, self._slot, :3] @ self._centres)[..., 0]  # (B, G, 3) in the world
-        gap = centres[:, self._a] - centres[:, self._b]
-        return np.sqrt(np.einsum("bpk,bpk->bp", gap, gap)) - self._reach
+        out = np.empty((placements.shape[0], len(self)))
+        _sphere_bounds(np.ascontiguousarray(placements), self._slot, self._centres, self._a, self._b, self._reach, out)
+        return out
 
     def refine(self, placements: Array, rows: IntArray, pairs: IntArray) -> Array:
         """Lower bounds ``(C,)`` [m] of pair ``pairs[c]`` at configuration ``rows[c]`` from the DOP covers (step 2 of
         the module docstring; combine them with :meth:`bounds` by the larger)."""
-        return _dop_gap(placements[rows, self._dop_slot[pairs]], placements[rows, self._capsule_slot[pairs]],
-                        self._capsule_ends[pairs], self._dop_support[pairs]) - self._capsule_radius[pairs]
+        out = np.empty(len(rows))
+        _dop_gaps(np.ascontiguousarray(placements), rows, pairs, self._dop_slot, self._capsule_slot, self._capsule_ends,
+                  self._dop_support, _DIRECTIONS, out)
+        return out - self._capsule_radius[pairs]
 
     def candidates(self, placements: Array, within: float) -> tuple[Array, IntArray, IntArray]:
         """The bounds ``(B, P)`` [m] (steps 1 and 2) and the (configuration, pair) entries still below ``within``
@@ -273,11 +275,46 @@ def _corners(low: Array, high: Array) -> Array:
     return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
 
-def _dop_gap(held: Array, other: Array, ends: Array, support: Array) -> Array:
-    """``max_n (min(n . e0, n . e1) - h(n))`` ``(C,)`` [m]: how far the segments ``ends`` ``(C, 2, 3)`` (in the frame
-    of joint placements ``other`` ``(C, 4, 4)``) lie outside the DOPs ``support`` ``(C, 26)`` (in the frame of
-    ``held``)."""
-    world = ends @ other[:, :3, :3].transpose(0, 2, 1) + other[:, None, :3, 3]
-    local = (world - held[:, None, :3, 3]) @ held[:, :3, :3]
-    along = (local.reshape(-1, 3) @ _DIRECTIONS_T).reshape(-1, 2, _DIRECTIONS_T.shape[1])  # one product for all
-    return (np.minimum(along[:, 0], along[:, 1]) - support).max(axis=1)
+@numba.njit(cache=True, nogil=True)
+def _sphere_bounds(placements: Array, slot: IntArray, centres: Array, a: IntArray, b: IntArray, reach: Array,
+                   out: Array) -> None:  # pragma: no cover - compiled
+    """``out[r, k] = |c_a - c_b| - reach[k]`` for pair ``k`` = ``(a[k], b[k])`` at configuration ``r``: the sphere
+    centres ``centres`` ``(G, 3)`` carried by the placements ``placements[r, slot[g]]`` ``(4, 4)``."""
+    world = np.empty((len(slot), 3))
+    for r in range(placements.shape[0]):
+        for g in range(len(slot)):
+            H = placements[r, slot[g]]
+            for i in range(3):
+                world[g, i] = H[i, 0] * centres[g, 0] + H[i, 1] * centres[g, 1] + H[i, 2] * centres[g, 2] + H[i, 3]
+        for k in range(len(a)):
+            dx = world[a[k], 0] - world[b[k], 0]
+            dy = world[a[k], 1] - world[b[k], 1]
+            dz = world[a[k], 2] - world[b[k], 2]
+            out[r, k] = np.sqrt(dx * dx + dy * dy + dz * dz) - reach[k]
+
+
+@numba.njit(cache=True, nogil=True)
+def _dop_gaps(placements: Array, rows: IntArray, pairs: IntArray, dop_slot: IntArray, capsule_slot: IntArray,
+              ends: Array, support: Array, directions: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """``out[c] = max_n (min(n . e0, n . e1) - h(n))`` for pair ``pairs[c]`` at configuration ``rows[c]``: how far its
+    capsule axis ``ends[pair]`` ``(2, 3)`` (in the frame of the placement ``capsule_slot[pair]``) lies outside the DOP
+    ``support[pair]`` ``(26,)`` over ``directions`` ``(26, 3)`` (in the frame of the placement ``dop_slot[pair]``)."""
+    local = np.empty((2, 3))
+    for c in range(len(rows)):
+        k = pairs[c]
+        held = placements[rows[c], dop_slot[k]]
+        other = placements[rows[c], capsule_slot[k]]
+        for e in range(2):
+            x = ends[k, e]
+            w0 = other[0, 0] * x[0] + other[0, 1] * x[1] + other[0, 2] * x[2] + other[0, 3] - held[0, 3]
+            w1 = other[1, 0] * x[0] + other[1, 1] * x[1] + other[1, 2] * x[2] + other[1, 3] - held[1, 3]
+            w2 = other[2, 0] * x[0] + other[2, 1] * x[1] + other[2, 2] * x[2] + other[2, 3] - held[2, 3]
+            for i in range(3):  # into the held frame: R^T w
+                local[e, i] = held[0, i] * w0 + held[1, i] * w1 + held[2, i] * w2
+        best = -np.inf
+        for n in range(directions.shape[0]):
+            d = directions[n]
+            along0 = local[0, 0] * d[0] + local[0, 1] * d[1] + local[0, 2] * d[2]
+            along1 = local[1, 0] * d[0] + local[1, 1] * d[1] + local[1, 2] * d[2]
+            best = max(best, min(along0, along1) - support[k, n])
+        out[c] = best
