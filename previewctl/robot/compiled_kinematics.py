@@ -29,8 +29,12 @@ import pinocchio as pin
 
 from previewctl.types import Array, IntArray
 
-REVOLUTE, PRISMATIC, CONTINUOUS = 0, 1, 2
-"""The joint kinds of the kernel."""
+REVOLUTE = 0
+"""A revolute joint: ``M_j`` a rotation by ``q_j`` [rad] about its axis."""
+PRISMATIC = 1
+"""A prismatic joint: ``M_j`` a translation by ``q_j`` [m] along its axis."""
+CONTINUOUS = 2
+"""A continuous joint: ``M_j`` a rotation whose ``(cos, sin)`` are its two configuration entries."""
 
 _KINDS = {
     **{f"JointModelR{x}": REVOLUTE for x in "XYZ"},
