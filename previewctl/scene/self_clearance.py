@@ -3,8 +3,9 @@
 The self pairs have their own Pinocchio geometry model (:attr:`SelfPairs.geometry
 <previewctl.robot.self_pairs.SelfPairs.geometry>`): every pair in one ``pin.computeDistances`` call when all are
 wanted. Most pairs of most configurations are far apart, so the batches and the witnesses first bound each pair from
-below in numpy, and ask Coal only about the pairs whose bound is below the distance that matters (the potential's self
-influence distance, a damper's reach); the others keep their bound, which is then at least that distance.
+below (compiled loops over the batch), and ask Coal only about the pairs whose bound is below the distance that matters
+(the potential's self influence distance, a damper's reach); the others keep their bound, which is then at least that
+distance.
 
 1. Every pair of the batch at once: each geometry is enclosed in a sphere carried by its joint (centred on its
    bounding box), and ``d >= |c_a - c_b| - r_a - r_b``.
@@ -15,9 +16,9 @@ influence distance, a damper's reach); the others keep their bound, which is the
    separates them by that much); the larger of the two bounds counts.
 
 On random Panda configurations (convex hulls, 44 pairs) 1 leaves about 4.5 pairs per configuration, 2 about 1.2,
-of which 0.8 are within 5 cm. numpy's cost per operation dominates at these sizes, hence the cheap first step on
-every pair and the finer second on few. The batch distances are unsigned (Coal skips the penetration depth, which
-only EPA computes): a pair in contact is at 0. The witnesses are signed.
+of which 0.8 are within 5 cm: hence the cheap first step on every pair and the finer second on few. The batch
+distances are unsigned (Coal skips the penetration depth, which only EPA computes): a pair in contact is at 0. The
+witnesses are signed.
 
 Mesh (BVH) geometry is hollow here: two meshes that intersect are at distance 0 (or below), but a mesh wholly inside
 another without crossing it is not seen; the exact check runs every control period, so a contact is met as a
