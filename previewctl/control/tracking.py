@@ -44,7 +44,7 @@ import pinocchio as pin
 from previewctl.control.base import ControlState, Reference
 from previewctl.control.nullspace import limit_avoidance
 from previewctl.control.params import ControllerParams
-from previewctl.index.amsi import null_space_projector
+from previewctl.index.amsi import projector_from_svd
 from previewctl.kinematics import hand_placement
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -69,6 +69,11 @@ def damped_pseudo_inverse(J: Array, damping: float, threshold: float) -> tuple[A
         ``(J#, λ)``: ``J#`` of shape ``(n, m)``.
     """
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    return _damped_from_svd(U, s, Vt, damping, threshold)
+
+
+def _damped_from_svd(U: Array, s: Array, Vt: Array, damping: float, threshold: float) -> tuple[Array, float]:
+    """:func:`damped_pseudo_inverse` from an SVD ``J = U diag(s) Vᵀ`` taken already."""
     smin = float(s[-1]) if s.size else 0.0
     lam2 = damping**2 * (1.0 - (smin / threshold) ** 2) if smin < threshold else 0.0
     denom = s**2 + lam2
@@ -131,13 +136,14 @@ def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> floa
         qdot_null: the null-space term [rad/s], ``(nv,)``.
         limits: joint speed limits [rad/s] (``inf`` = none), ``(nv,)``.
     """
-    if np.any(np.abs(qdot_task) > limits):
+    if (np.abs(qdot_task) > limits).any():
         return 0.0
-    alpha = 1.0
-    for a, b, lim in zip(qdot_task, qdot_null, limits, strict=True):
-        if np.isfinite(lim) and abs(a + b) > lim and b != 0.0:
-            alpha = min(alpha, (math.copysign(lim, b) - a) / b)
-    return max(0.0, alpha)
+    over = (np.abs(qdot_task + qdot_null) > limits) & (qdot_null != 0.0)  # an infinite limit is never exceeded
+    if not over.any():
+        return 1.0
+    b = qdot_null[over]
+    alpha = float(((np.copysign(limits[over], b) - qdot_task[over]) / b).min())
+    return max(0.0, min(1.0, alpha))
 
 
 def task_target(robot: Robot, path: HandPath, t: float) -> tuple[Array, Array]:
@@ -190,9 +196,10 @@ def reference(robot: Robot, state: ControlState, v: Array, params: ControllerPar
     error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
     feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
     xdot = feedforward + params.feedback_gain * error
-    J_sharp, lam = damped_pseudo_inverse(J, params.damping, params.singular_threshold)
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)  # one SVD: the damped inverse and the projector
+    J_sharp, lam = _damped_from_svd(U, s, Vt, params.damping, params.singular_threshold)
     v_total = np.asarray(v, dtype=float) + limit_avoidance(robot, q, params)
-    qdot_null = null_space_projector(J) @ v_total
+    qdot_null = projector_from_svd(s, Vt) @ v_total
     limits = effective_velocity_limits(robot, params.velocity_scale)
     qdot_task = J_sharp @ xdot
     budget = null_space_budget(qdot_task, qdot_null, limits)
