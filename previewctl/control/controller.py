@@ -242,7 +242,7 @@ class Controller:
                 self.law, self.execution = observed.rebuild(observed.world.scene)
         kin = kinematics(self.robot, Q, reader=self._reader)
         state = ControlState(Q[0], now, kin, self.path, period, frame_due=frame != self._last_frame,
-                             data=self._scratch)
+                             data=self._scratch, joint_data=self._reader.data)
         if self.planning is None:
             null = self.law.null_input(state)
             status = None

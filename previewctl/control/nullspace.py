@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pinocchio as pin
 
@@ -19,6 +21,9 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.types import Array
+
+LocalTerm = Callable[[Array, float], Array]
+"""A local null-space term ``v(q, t)`` [rad/s] ``(nv,)`` that a law adds to its input (:class:`AmsipGradient`)."""
 
 
 def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
@@ -88,7 +93,8 @@ class AmsipGradient:
 
     def __init__(self, robot: Robot, evaluator: Evaluator, params: ControllerParams) -> None:
         self.robot, self.evaluator, self.step = robot, evaluator, params.fd_step
-        self._gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
+        self.gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
+        """``K_g`` [1/s] ``(nv,)``."""
 
     def gradient(self, q: Array, t: float) -> Array:
         """``∇_q S`` at ``q`` ``(nq,)`` and time ``t`` [s], shape ``(nv,)`` [1/rad]."""
@@ -100,4 +106,4 @@ class AmsipGradient:
 
     def __call__(self, q: Array, t: float) -> Array:
         """``v = K_g ∇_q S`` ``(nv,)`` [rad/s] at ``q`` ``(nq,)`` and time ``t`` [s]."""
-        return np.asarray(self._gain * self.gradient(q, t))
+        return np.asarray(self.gain * self.gradient(q, t))

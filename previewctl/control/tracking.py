@@ -148,10 +148,16 @@ def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> floa
 
 def task_target(robot: Robot, path: HandPath, t: float) -> tuple[Array, Array]:
     """Desired hand position and velocity at ``t`` [s], padded to 3-D: ``((3,) [m], (3,) [m/s])``."""
-    p, v = np.zeros(3), np.zeros(3)
-    d = path.dim
-    p[:d], v[:d] = path.position(t), path.velocity(t)
-    return p, v
+    v = np.zeros(3)
+    v[:path.dim] = path.velocity(t)
+    return desired_position(path, t), v
+
+
+def desired_position(path: HandPath, t: float) -> Array:
+    """Desired hand position at ``t`` [s], padded to 3-D: ``(3,)`` [m]."""
+    p = np.zeros(3)
+    p[:path.dim] = path.position(t)
+    return p
 
 
 def task_error(robot: Robot, path: HandPath, r_d: Array, tip: Array, rotation: Array) -> Array:
@@ -175,7 +181,7 @@ def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array
     dt = state.dt
     data = state.data if state.data is not None else robot.model.createData()
     tip, rotation = hand_placement(robot, pin.integrate(robot.model, state.q, qdot * dt), data)
-    r_d = task_target(robot, state.path, state.t + dt)[0]
+    r_d = desired_position(state.path, state.t + dt)
     predicted = task_error(robot, state.path, r_d, tip, rotation)
     return np.asarray((predicted - math.exp(-params.feedback_gain * dt) * error) / dt, dtype=float)
 
