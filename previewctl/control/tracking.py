@@ -42,7 +42,7 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.control.base import ControlState, Reference
-from previewctl.control.nullspace import limit_avoidance
+from previewctl.control.nullspace import LimitAvoidance
 from previewctl.control.params import ControllerParams
 from previewctl.index.amsi import projector_from_svd
 from previewctl.kinematics import hand_placement
@@ -187,7 +187,8 @@ def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array
 
 
 def reference(robot: Robot, state: ControlState, v: Array, params: ControllerParams) -> Reference:
-    """Eq. 19 with feedback, damping, task priority and the step correction for a null-space input ``v``.
+    """Eq. 19 with feedback, damping, task priority and the step correction for a null-space input ``v``
+    (:class:`Tracking`; keep one of those to step a loop).
 
     Args:
         robot: the arm.
@@ -195,23 +196,45 @@ def reference(robot: Robot, state: ControlState, v: Array, params: ControllerPar
         v: the law's null-space input [rad/s] ``(nv,)``; the joint-limit avoidance is added to it.
         params: gains, damping, limits.
     """
-    kin, t, q = state.kin, state.t, state.q
-    J = kin.J_task[0]
-    r_d, rdot_d = task_target(robot, state.path, t)
-    tip = kin.tip_position[0]
-    error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
-    feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
-    xdot = feedforward + params.feedback_gain * error
-    U, s, Vt = np.linalg.svd(J, full_matrices=False)  # one SVD: the damped inverse and the projector
-    J_sharp, lam = _damped_from_svd(U, s, Vt, params.damping, params.singular_threshold)
-    v_total = np.asarray(v, dtype=float) + limit_avoidance(robot, q, params)
-    qdot_null = projector_from_svd(s, Vt) @ v_total
-    limits = effective_velocity_limits(robot, params.velocity_scale)
-    qdot_task = J_sharp @ xdot
-    budget = null_space_budget(qdot_task, qdot_null, limits)
-    for _ in range(STEP_ITERATIONS if params.step_correction else 0):
-        xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
+    return Tracking(robot, params)(state, v)
+
+
+class Tracking:
+    """Eq. 19 with feedback, damping, task priority and the step correction (module docstring), for one arm and its
+    settings: what does not change from cycle to cycle (the speed limits, the limit avoidance's margins) is computed
+    once.
+
+    Args:
+        robot: the arm.
+        params: gains, damping, limits.
+    """
+
+    def __init__(self, robot: Robot, params: ControllerParams) -> None:
+        self.robot, self.params = robot, params
+        self._limits = effective_velocity_limits(robot, params.velocity_scale)
+        self._avoidance = LimitAvoidance(robot, params)
+        self._iterations = STEP_ITERATIONS if params.step_correction else 0
+
+    def __call__(self, state: ControlState, v: Array) -> Reference:
+        """The reference for ``state`` and the law's null-space input ``v`` [rad/s] ``(nv,)`` (the joint-limit
+        avoidance is added to it)."""
+        robot, params, limits = self.robot, self.params, self._limits
+        kin, t = state.kin, state.t
+        J = kin.J_task[0]
+        r_d, rdot_d = task_target(robot, state.path, t)
+        tip = kin.tip_position[0]
+        error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
+        feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
+        xdot = feedforward + params.feedback_gain * error
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)  # one SVD: the damped inverse and the projector
+        J_sharp, lam = _damped_from_svd(U, s, Vt, params.damping, params.singular_threshold)
+        v_total = np.asarray(v, dtype=float) + self._avoidance(state.q)
+        qdot_null = projector_from_svd(s, Vt) @ v_total
         qdot_task = J_sharp @ xdot
         budget = null_space_budget(qdot_task, qdot_null, limits)
-    return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
-                     xdot=xdot, v=v_total, qdot_task=qdot_task, qdot_null=qdot_null, budget=budget, damping=lam)
+        for _ in range(self._iterations):
+            xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
+            qdot_task = J_sharp @ xdot
+            budget = null_space_budget(qdot_task, qdot_null, limits)
+        return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
+                         xdot=xdot, v=v_total, qdot_task=qdot_task, qdot_null=qdot_null, budget=budget, damping=lam)
