@@ -176,6 +176,21 @@ def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
         assert ctrl.last_info.plan_age is not None and ctrl.last_info.plan_age <= valid
 
 
+@pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="reads a process's environment from /proc")
+def test_the_worker_runs_one_blas_thread_and_the_loop_keeps_its_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from previewctl.control.worker import SINGLE_THREAD
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    before = dict(os.environ)
+    with stand_in_controller() as ctrl:
+        pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+        environ = dict(entry.split("=", 1) for entry in
+                       Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in entry)
+        assert dict(os.environ) == before
+    assert {name: environ.get(name) for name in SINGLE_THREAD} == SINGLE_THREAD
+
+
 def test_a_hung_worker_is_reported_after_the_timeout() -> None:
     held, q = Held(), np.array(Q0)
     with stand_in_controller(worker_compute=held, background=BackgroundOptions(timeout=1.0)) as ctrl:
