@@ -16,9 +16,9 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
 * with ``with_gradient`` (``single``, ``multi``) the worker also computes the local term's ``∇_q S`` at each state
   posted (:class:`BackgroundGradient`): about 2 ms on the Panda, too much for a 4 ms cycle. The loop applies
   ``K_g ∇_q S(q0, t0)``, the gradient at the state ``(q0, t0)`` posted last, while it is at most ``arms_valid_frames``
-  frames old, and no local term after that. A stale gradient is the slope where the arm was a frame or two before
-  (at most ``|q̇| · age`` away, a few centiradians): it shapes the null-space motion only, while the QP's dampers,
-  computed at every cycle from the present distances, keep the links clear;
+  frames old, and no local term after that. A stale gradient is the slope where the arm was up to that long ago
+  (``|q̇| · age`` away: up to about 0.1 rad at 1 rad/s): it shapes the null-space motion only, while the QP's
+  dampers, computed at every cycle from the present distances, keep the links clear;
 * a result is valid while its age ``t − t0`` is at most ``arms_valid_frames`` frames (targets) or
   ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
   valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
@@ -366,13 +366,12 @@ class BackgroundArms:
         return self.planning.targets(state.t, self.arms)
 
 
-
 class BackgroundGradient:
     """The loop's AMSIP gradient term with planning in the background: ``v = K_g ∇_q S(q0, t0)``, the worker's
     gradient at the state posted last, while valid (module docstring); zero without one.
 
     Args:
-        gain: ``K_g`` [1/s] ``(nv,)``.
+        gain: ``K_g`` ``(nv,)`` [rad²/s per unit of S].
         planning: the loop's side of the planning.
     """
 

@@ -178,8 +178,8 @@ class QPExecution:
 
     def dampers(self, q: Array, t: float, joint_data: pin.Data | None = None) -> Dampers:
         """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]; ``joint_data``: a ``Data`` that holds
-        the joint placements and Jacobians at ``q`` already (:attr:`ControlState.joint_data
-        <previewctl.control.base.ControlState.joint_data>`), else they are computed."""
+        the joint placements and Jacobians at ``q`` already (the cycle's ``ControlState.joint_data``), else they are
+        computed."""
         p = self.params
         if joint_data is None:
             pin.computeJointJacobians(self.robot.model, self.data, q)

@@ -108,7 +108,7 @@ class AmsipGradient:
     def __init__(self, robot: Robot, evaluator: Evaluator, params: ControllerParams) -> None:
         self.robot, self.evaluator, self.step = robot, evaluator, params.fd_step
         self.gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
-        """``K_g`` [1/s] ``(nv,)``."""
+        """``K_g`` ``(nv,)`` [rad²/s per unit of S]."""
 
     def gradient(self, q: Array, t: float) -> Array:
         """``∇_q S`` at ``q`` ``(nq,)`` and time ``t`` [s], shape ``(nv,)`` [1/rad]."""
