@@ -176,6 +176,21 @@ def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
         assert ctrl.last_info.plan_age is not None and ctrl.last_info.plan_age <= valid
 
 
+@pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="reads a process's environment from /proc")
+def test_the_worker_runs_one_blas_thread_and_the_loop_keeps_its_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from previewctl.control.worker import SINGLE_THREAD
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    before = dict(os.environ)
+    with stand_in_controller() as ctrl:
+        pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+        environ = dict(entry.split("=", 1) for entry in
+                       Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in entry)
+        assert dict(os.environ) == before
+    assert {name: environ.get(name) for name in SINGLE_THREAD} == SINGLE_THREAD
+
+
 def test_a_hung_worker_is_reported_after_the_timeout() -> None:
     held, q = Held(), np.array(Q0)
     with stand_in_controller(worker_compute=held, background=BackgroundOptions(timeout=1.0)) as ctrl:
@@ -310,6 +325,56 @@ def test_the_worker_side_answers_as_inline_planning(planar4: Robot) -> None:
     followed = inline.law.policy.planner.planner.motion  # type: ignore[attr-defined]
     np.testing.assert_array_equal(result.motion.q, followed.q)
     assert side(np.array(Q0), 0.01) is None  # the same plan: nothing new
+
+
+def test_the_worker_side_carries_the_gradient_at_the_state_posted(planar4: Robot) -> None:
+    """With ``with_gradient`` each answer carries ``∇_q S`` at the state posted, bit for bit the inline term's; a route
+    whose plan did not change still answers, with the new gradient and no plan."""
+    from previewctl.control.factory import planning_side
+
+    ascent = pc.make_controller(planar_scenario("gradient")).law.ascent  # type: ignore[attr-defined]
+    q = np.array(Q0)
+    for coherent in (False, True):  # argmax targets; a route's plans
+        scenario = planar_scenario("multi", with_gradient=True, coherent=coherent)
+        side = planning_side(scenario.controller, scenario.robot, scenario.path, scenario.scene, scenario.index,
+                             scenario.potential, np.random.default_rng(0), 0.033, fixed_search)
+        first, again = side(q, 0.0), side(q, 0.033)
+        assert first is not None and again is not None
+        for result, t in ((first, 0.0), (again, 0.033)):
+            assert result.local is not None and result.local[0] == t
+            np.testing.assert_array_equal(result.local[1], ascent.gradient(q, t))
+        if coherent:
+            assert first.motion is not None and again.motion is None and again.made == first.made
+
+
+def test_the_loop_applies_the_workers_gradient_while_it_is_valid() -> None:
+    """``K_g ∇_q S(q0, t0)`` from the latest result, whatever the configuration now, until ``arms_valid_frames``
+    frames after ``t0``; then no local term."""
+    from previewctl.control.background import BackgroundGradient, BackgroundPlanning
+
+    planning = BackgroundPlanning(BackgroundOptions(arms_valid_frames=3.0), 0.033)
+    gain, gradient = np.array([1.0, 2.0, 3.0, 4.0]), np.array([0.5, -1.0, 2.0, 0.25])
+    term = BackgroundGradient(gain, planning)
+    q = np.array(Q0)
+    np.testing.assert_array_equal(term(q, 0.0), np.zeros(4))  # no result yet
+    planning.result = PlanningResult(1.0, 0.01, local=(1.0, gradient))
+    for t in (1.0, 1.05, 1.099):
+        np.testing.assert_array_equal(term(q + t, t), gain * gradient)
+    np.testing.assert_array_equal(term(q, 1.1), np.zeros(4))  # 4 frames late: stale
+
+
+def test_a_background_run_adds_the_workers_gradient() -> None:
+    """``multi`` with ``with_gradient`` in the background: the local term is the inline gradient at the state the worker
+    answered, for an arm held still."""
+    ascent = pc.make_controller(planar_scenario("gradient")).law.ascent  # type: ignore[attr-defined]
+    q = np.array(Q0)
+    scenario = planar_scenario("multi", coherent=False, with_gradient=True)
+    with pc.make_controller(scenario, search_factory=fixed_search, planning="background") as ctrl:
+        k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+        t = (k - 1) * DT
+        local = ctrl.planning.result.local  # type: ignore[union-attr]
+        assert local is not None and t - local[0] <= 3 * ctrl.frame
+        np.testing.assert_array_equal(ctrl.law.local(q, t), ascent.gain * ascent.gradient(q, local[0]))  # type: ignore[attr-defined]
 
 
 LOOP = """

@@ -13,6 +13,12 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
 * a plan delivered at ``t1`` is followed from where the arm is at ``t1``
   (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time,
   moved to start at the arm, and faded back into itself over one replan period;
+* with ``with_gradient`` (``single``, ``multi``) the worker also computes the local term's ``∇_q S`` at each state
+  posted (:class:`BackgroundGradient`): about 2 ms on the Panda, too much for a 4 ms cycle. The loop applies
+  ``K_g ∇_q S(q0, t0)``, the gradient at the state ``(q0, t0)`` posted last, while it is at most ``arms_valid_frames``
+  frames old, and no local term after that. A stale gradient is the slope where the arm was up to that long ago
+  (``|q̇| · age`` away: up to about 0.1 rad at 1 rad/s): it shapes the null-space motion only, while the QP's
+  dampers, computed at every cycle from the present distances, keep the links clear;
 * a result is valid while its age ``t − t0`` is at most ``arms_valid_frames`` frames (targets) or
   ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
   valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
@@ -35,11 +41,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
+import numpy as np
 from pydantic import Field
 
 from previewctl.control.base import ControlState, PlanningStatus
 from previewctl.control.imaginary import ArmPolicy, ImaginaryArms, RoutePoints, Targets, plan_points
 from previewctl.control.laws import Reach
+from previewctl.control.nullspace import AmsipGradient
 from previewctl.control.planner import PeakPlanner, WindowPlanner
 from previewctl.control.worker import Compute, PlanningWorker
 from previewctl.errors import ConfigurationError
@@ -84,6 +92,8 @@ class PlanningResult:
         motion: a new plan to follow (``route`` policy, ``reach``, ``horizon``, ``oracle``), else ``None``.
         best: ``reach``: the imaginary arms' best candidates and their AMSIP at the last frame, else ``None``.
         goal: ``reach``: the peak the plan heads for, ``(level, configuration, S)``, or ``None``.
+        local: ``(t0, ∇_q S)``: the AMSIP gradient ``(nv,)`` [1/rad] at the state posted at ``t0`` [s] (laws
+            ``with_gradient``), else ``None``.
     """
 
     made: float
@@ -92,6 +102,7 @@ class PlanningResult:
     motion: ReachMotion | None = None
     best: tuple[Array, Array] | None = None
     goal: tuple[int, Array, float] | None = None
+    local: tuple[float, Array] | None = None
 
 
 class PlanningSide:
@@ -106,10 +117,12 @@ class PlanningSide:
         robot: the arm.
         path: the desired hand path.
         frame: camera frame period [s].
+        local: the law's AMSIP gradient term, whose ``∇_q S`` each result carries, or ``None``.
     """
 
-    def __init__(self, part: ArmPolicy | Reach | WindowPlanner, robot: Robot, path: HandPath, frame: float) -> None:
-        self.part, self.robot, self.path, self.frame = part, robot, path, frame
+    def __init__(self, part: ArmPolicy | Reach | WindowPlanner, robot: Robot, path: HandPath, frame: float,
+                 local: AmsipGradient | None = None) -> None:
+        self.part, self.robot, self.path, self.frame, self.local = part, robot, path, frame, local
         self._reader = kinematics_reader(robot)
         self._data = robot.model.createData()
         self._sent: ReachMotion | None = None
@@ -140,11 +153,18 @@ class PlanningSide:
         elif isinstance(part, Reach):
             raise ConfigurationError("reach plans in the background only with its planner toward the peaks")
         else:
-            return PlanningResult(t, time.perf_counter() - start, targets=part.targets(state))
-        if motion is None or motion is self._sent:
+            targets = part.targets(state)
+            return PlanningResult(t, time.perf_counter() - start, targets=targets, local=self._local(q, t))
+        if motion is None or (motion is self._sent and self.local is None):
             return None
+        new = motion is not self._sent  # else only a new gradient for the plan in use
         self._sent = motion
-        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion)
+        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion if new else None,
+                              local=self._local(q, t))
+
+    def _local(self, q: Array, t: float) -> tuple[float, Array] | None:
+        """``(t, ∇_q S(q, t))`` of the law's gradient term, or ``None`` without one."""
+        return None if self.local is None else (t, self.local.gradient(q, t))
 
 
 class ObservedSide:
@@ -254,6 +274,18 @@ class BackgroundPlanning:
         self.follower = self._follower_of(planner)
         return self.follower
 
+    def gradient(self, local: AmsipGradient) -> BackgroundGradient:
+        """The loop's stand-in for the law's gradient term ``local``, whose ``∇_q S`` the worker computes."""
+        return BackgroundGradient(local.gain, self)
+
+    def local_gradient(self, t: float) -> Array | None:
+        """The worker's latest ``∇_q S`` [1/rad] if it is at most ``arms_valid_frames`` frames old at ``t`` [s], else
+        ``None``."""
+        local = None if self.result is None else self.result.local
+        if local is None or t - local[0] > self.options.arms_valid_frames * self.frame + 1e-9:
+            return None
+        return local[1]
+
     def _follower_of(self, planner: WindowPlanner) -> Follower:
         timing = planner.timing
         self._valid = (math.inf if timing.window is None
@@ -333,3 +365,20 @@ class BackgroundArms:
         """The latest targets the worker's results give at the state's time."""
         return self.planning.targets(state.t, self.arms)
 
+
+class BackgroundGradient:
+    """The loop's AMSIP gradient term with planning in the background: ``v = K_g ∇_q S(q0, t0)``, the worker's
+    gradient at the state posted last, while valid (module docstring); zero without one.
+
+    Args:
+        gain: ``K_g`` ``(nv,)`` [rad²/s per unit of S].
+        planning: the loop's side of the planning.
+    """
+
+    def __init__(self, gain: Array, planning: BackgroundPlanning) -> None:
+        self.gain, self.planning = gain, planning
+
+    def __call__(self, q: Array, t: float) -> Array:
+        """``K_g ∇_q S`` ``(nv,)`` [rad/s] from the worker's latest valid gradient (``q`` is not read), else zeros."""
+        gradient = self.planning.local_gradient(t)
+        return np.zeros_like(self.gain) if gradient is None else np.asarray(self.gain * gradient)

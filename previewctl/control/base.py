@@ -42,6 +42,9 @@ class ControlState:
         dt: how long the command will be applied [s] (the position limits keep ``q + q̇ dt`` inside).
         frame_due: whether a camera frame arrives at this cycle (GA-based laws run a generation).
         data: a Pinocchio ``Data`` of the arm for predictions (``None``: one is made when needed).
+        joint_data: the Pinocchio ``Data`` that ``kin`` was computed in: its joint placements and world joint
+            Jacobians are those at ``q`` (``computeJointJacobians``), for the parts to read instead of computing them
+            again (``None``: not at hand).
     """
 
     q: Array
@@ -51,6 +54,7 @@ class ControlState:
     dt: float
     frame_due: bool
     data: pin.Data | None = None
+    joint_data: pin.Data | None = None
 
 
 @dataclass(frozen=True)

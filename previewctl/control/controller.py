@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike
 
 from previewctl.control.base import Composition, ControlInfo, ControlLaw, ControlState, Execution, NullInput, Planning
 from previewctl.control.params import ControllerParams
-from previewctl.control.tracking import reference
+from previewctl.control.tracking import Tracking
 from previewctl.errors import ConfigurationError, ObservationError, ParameterError, PreviewctlError
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.path import HandPath
@@ -136,6 +136,7 @@ class Controller:
         self.frame = positive_period(frame, "frame")
         self.dt = positive_period(dt, "dt")
         self._reader = kinematics_reader(robot)  # built once: each step only reads through it
+        self._tracking = Tracking(robot, params)
         self._scratch = robot.model.createData()  # predictions (eq. 19's step correction)
         self._last_frame: int | None = None
         self._last_t: float | None = None
@@ -242,14 +243,14 @@ class Controller:
                 self.law, self.execution = observed.rebuild(observed.world.scene)
         kin = kinematics(self.robot, Q, reader=self._reader)
         state = ControlState(Q[0], now, kin, self.path, period, frame_due=frame != self._last_frame,
-                             data=self._scratch)
+                             data=self._scratch, joint_data=self._reader.data)
         if self.planning is None:
             null = self.law.null_input(state)
             status = None
         else:  # never waits; without a valid result the qp law
             status = self.planning.exchange(state, None if observed is None else observed.world.observed_obstacles())
             null = NullInput(np.zeros(self.robot.nv)) if status.fallback else self.law.null_input(state)
-        ref = reference(self.robot, state, null.v, self.params)
+        ref = self._tracking(state, null.v)
         executed = self.execution(state, ref)
         self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip)
         if status is not None:

@@ -176,22 +176,27 @@ class QPExecution:
         self._velocity_time = np.nan
         self._velocity_revisions = self.clearance.revisions()
 
-    def dampers(self, q: Array, t: float) -> Dampers:
-        """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]."""
+    def dampers(self, q: Array, t: float, joint_data: pin.Data | None = None) -> Dampers:
+        """The damper rows at configuration ``q`` ``(nq,)`` and time ``t`` [s]; ``joint_data``: a ``Data`` that holds
+        the joint placements and Jacobians at ``q`` already (the cycle's ``ControlState.joint_data``), else they are
+        computed."""
         p = self.params
-        pin.computeJointJacobians(self.robot.model, self.data, q)
+        if joint_data is None:
+            pin.computeJointJacobians(self.robot.model, self.data, q)
+            data, J = self.data, self._joint_J
+        else:
+            data, J = joint_data, joint_data.J
         self.clearance.set_time(t)
-        near, w = self.clearance.witnesses(self.data, within=p.influence_distance)
+        near, w = self.clearance.witnesses(data, within=p.influence_distance)
         # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
         # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
-        J = self._joint_J
         G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
         obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
         obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
         approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
         if not len(self.robot.self_pairs):
             return Dampers(G, approach + obstacle_speed, w.distance, near, np.zeros(0, dtype=int))
-        s = self.clearance.self_witnesses(self.data, within=p.self_influence_distance)
+        s = self.clearance.self_witnesses(data, within=p.self_influence_distance)
         support_a, support_b = self._self_support[0][s.pairs], self._self_support[1][s.pairs]
         G_self = ((s.normal @ J[:3] + _cross(s.point_a, s.normal) @ J[3:]) * support_a
                   - (s.normal @ J[:3] + _cross(s.point_b, s.normal) @ J[3:]) * support_b)
@@ -230,7 +235,7 @@ class QPExecution:
         t, q = state.t, state.q
         requested = reference.qdot_task + reference.qdot_null
         lower, upper = self.bounds(q, state.dt)
-        rows = self.dampers(q, t)
+        rows = self.dampers(q, t, state.joint_data)
         slack = 0.0
         if (requested >= lower).all() and (requested <= upper).all() and (rows.G @ requested <= rows.h).all():
             qdot = requested.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution

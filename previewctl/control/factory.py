@@ -267,7 +267,8 @@ def planning_side(spec: ControllerSpec, robot: Robot, path: HandPath, scene: Sce
     parts = compose(spec, robot, scene, Evaluator(robot, scene, index, potential), rng, search_factory=search_factory)
     law = parts.law
     if isinstance(law, (SinglePreview, MultiPreview)):
-        return PlanningSide(law.policy, robot, path, frame)
+        local = law.local if isinstance(law.local, AmsipGradient) else None
+        return PlanningSide(law.policy, robot, path, frame, local)
     if isinstance(law, Reach):
         return PlanningSide(law, robot, path, frame)
     if isinstance(law, (Horizon, Oracle)):
@@ -449,7 +450,8 @@ def _preview(spec: ControllerSpec, robot: Robot, evaluator: Evaluator, rng: np.r
     law_class = SinglePreview if name == "single" else MultiPreview
     if beside is not None:
         arm_policy = beside.arms(arm_policy)
-    return law_class(robot, params, arm_policy, weights, local), policy, planner
+    term = local if beside is None or local is None else beside.gradient(local)
+    return law_class(robot, params, arm_policy, weights, term), policy, planner
 
 
 def _preview_reads(name: str, params: ControllerParams, policy: str | None, planner: str | None) -> set[str]:

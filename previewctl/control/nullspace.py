@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pinocchio as pin
 
@@ -19,6 +21,9 @@ from previewctl.index.evaluator import Evaluator
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.types import Array
+
+LocalTerm = Callable[[Array, float], Array]
+"""A local null-space term ``v(q, t)`` [rad/s] ``(nv,)`` that a law adds to its input (:class:`AmsipGradient`)."""
 
 
 def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
@@ -35,20 +40,34 @@ def gain_vector(gain: tuple[float, ...], nv: int, where: str) -> Array:
 
 
 def limit_avoidance(robot: Robot, q: Array, params: ControllerParams) -> Array:
-    """Null-space input [rad/s] ``(nv,)`` that steers away from position limits before they are hit.
+    """Null-space input [rad/s] ``(nv,)`` that steers away from position limits before they are hit
+    (:class:`LimitAvoidance`; keep one of those to step a loop)."""
+    return LimitAvoidance(robot, params)(q)
 
-    ``−K_l ∇H`` of ``H = ½ Σ_j max(0, ρ_j − d_j)²`` over both limits of each joint with finite limits,
+
+class LimitAvoidance:
+    """``−K_l ∇H`` of ``H = ½ Σ_j max(0, ρ_j − d_j)²`` over both limits of each joint with finite limits,
     ``d_j`` the distance to the limit [rad] and ``ρ_j = limit_margin · (hi_j − lo_j)``: zero unless a
     joint is within ``ρ_j`` of a limit, then ``K_l`` [1/s] times how deep it is in that margin.
+
+    The margins are computed once for the arm and the settings (``limit_margin``, ``limit_gain`` [1/s]).
     """
-    facts = robot.joints
-    position = np.asarray(q, dtype=float)[facts.q_index]
-    bounded = np.isfinite(facts.lower) & np.isfinite(facts.upper)
-    margin = np.where(bounded, params.limit_margin * (facts.upper - facts.lower), 0.0)
-    with np.errstate(invalid="ignore"):
-        push_up = np.where(bounded, np.maximum(0.0, margin - (position - facts.lower)), 0.0)
-        push_down = np.where(bounded, np.maximum(0.0, margin - (facts.upper - position)), 0.0)
-    return np.asarray(params.limit_gain * (push_up - push_down), dtype=float)
+
+    def __init__(self, robot: Robot, params: ControllerParams) -> None:
+        facts = robot.joints
+        self._index, self._gain = facts.q_index, params.limit_gain
+        self._bounded = np.isfinite(facts.lower) & np.isfinite(facts.upper)
+        self._margin = np.where(self._bounded, params.limit_margin * (facts.upper - facts.lower), 0.0)
+        # an unbounded joint's limits read 0: its term is dropped anyway, and no infinity enters the arithmetic
+        self._lower = np.where(self._bounded, facts.lower, 0.0)
+        self._upper = np.where(self._bounded, facts.upper, 0.0)
+
+    def __call__(self, q: Array) -> Array:
+        """The input [rad/s] ``(nv,)`` at configuration ``q`` ``(nq,)``."""
+        position = np.asarray(q, dtype=float)[self._index]
+        push_up = np.where(self._bounded, np.maximum(0.0, self._margin - (position - self._lower)), 0.0)
+        push_down = np.where(self._bounded, np.maximum(0.0, self._margin - (self._upper - position)), 0.0)
+        return np.asarray(self._gain * (push_up - push_down), dtype=float)
 
 
 def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int, ...] = ()) -> Array:
@@ -88,7 +107,8 @@ class AmsipGradient:
 
     def __init__(self, robot: Robot, evaluator: Evaluator, params: ControllerParams) -> None:
         self.robot, self.evaluator, self.step = robot, evaluator, params.fd_step
-        self._gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
+        self.gain = gain_vector(params.gradient_gain, robot.nv, "gradient_gain")
+        """``K_g`` ``(nv,)`` [rad²/s per unit of S]."""
 
     def gradient(self, q: Array, t: float) -> Array:
         """``∇_q S`` at ``q`` ``(nq,)`` and time ``t`` [s], shape ``(nv,)`` [1/rad]."""
@@ -100,4 +120,4 @@ class AmsipGradient:
 
     def __call__(self, q: Array, t: float) -> Array:
         """``v = K_g ∇_q S`` ``(nv,)`` [rad/s] at ``q`` ``(nq,)`` and time ``t`` [s]."""
-        return np.asarray(self._gain * self.gradient(q, t))
+        return np.asarray(self.gain * self.gradient(q, t))

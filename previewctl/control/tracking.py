@@ -42,9 +42,9 @@ import numpy as np
 import pinocchio as pin
 
 from previewctl.control.base import ControlState, Reference
-from previewctl.control.nullspace import limit_avoidance
+from previewctl.control.nullspace import LimitAvoidance
 from previewctl.control.params import ControllerParams
-from previewctl.index.amsi import null_space_projector
+from previewctl.index.amsi import projector_from_svd
 from previewctl.kinematics import hand_placement
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -69,6 +69,11 @@ def damped_pseudo_inverse(J: Array, damping: float, threshold: float) -> tuple[A
         ``(J#, λ)``: ``J#`` of shape ``(n, m)``.
     """
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    return _damped_from_svd(U, s, Vt, damping, threshold)
+
+
+def _damped_from_svd(U: Array, s: Array, Vt: Array, damping: float, threshold: float) -> tuple[Array, float]:
+    """:func:`damped_pseudo_inverse` from an SVD ``J = U diag(s) Vᵀ`` taken already."""
     smin = float(s[-1]) if s.size else 0.0
     lam2 = damping**2 * (1.0 - (smin / threshold) ** 2) if smin < threshold else 0.0
     denom = s**2 + lam2
@@ -131,21 +136,28 @@ def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> floa
         qdot_null: the null-space term [rad/s], ``(nv,)``.
         limits: joint speed limits [rad/s] (``inf`` = none), ``(nv,)``.
     """
-    if np.any(np.abs(qdot_task) > limits):
+    if (np.abs(qdot_task) > limits).any():
         return 0.0
-    alpha = 1.0
-    for a, b, lim in zip(qdot_task, qdot_null, limits, strict=True):
-        if np.isfinite(lim) and abs(a + b) > lim and b != 0.0:
-            alpha = min(alpha, (math.copysign(lim, b) - a) / b)
-    return max(0.0, alpha)
+    over = (np.abs(qdot_task + qdot_null) > limits) & (qdot_null != 0.0)  # an infinite limit is never exceeded
+    if not over.any():
+        return 1.0
+    b = qdot_null[over]
+    alpha = float(((np.copysign(limits[over], b) - qdot_task[over]) / b).min())
+    return max(0.0, min(1.0, alpha))
 
 
 def task_target(robot: Robot, path: HandPath, t: float) -> tuple[Array, Array]:
     """Desired hand position and velocity at ``t`` [s], padded to 3-D: ``((3,) [m], (3,) [m/s])``."""
-    p, v = np.zeros(3), np.zeros(3)
-    d = path.dim
-    p[:d], v[:d] = path.position(t), path.velocity(t)
-    return p, v
+    v = np.zeros(3)
+    v[:path.dim] = path.velocity(t)
+    return desired_position(path, t), v
+
+
+def desired_position(path: HandPath, t: float) -> Array:
+    """Desired hand position at ``t`` [s], padded to 3-D: ``(3,)`` [m]."""
+    p = np.zeros(3)
+    p[:path.dim] = path.position(t)
+    return p
 
 
 def task_error(robot: Robot, path: HandPath, r_d: Array, tip: Array, rotation: Array) -> Array:
@@ -169,13 +181,14 @@ def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array
     dt = state.dt
     data = state.data if state.data is not None else robot.model.createData()
     tip, rotation = hand_placement(robot, pin.integrate(robot.model, state.q, qdot * dt), data)
-    r_d = task_target(robot, state.path, state.t + dt)[0]
+    r_d = desired_position(state.path, state.t + dt)
     predicted = task_error(robot, state.path, r_d, tip, rotation)
     return np.asarray((predicted - math.exp(-params.feedback_gain * dt) * error) / dt, dtype=float)
 
 
 def reference(robot: Robot, state: ControlState, v: Array, params: ControllerParams) -> Reference:
-    """Eq. 19 with feedback, damping, task priority and the step correction for a null-space input ``v``.
+    """Eq. 19 with feedback, damping, task priority and the step correction for a null-space input ``v``
+    (:class:`Tracking`; keep one of those to step a loop).
 
     Args:
         robot: the arm.
@@ -183,22 +196,45 @@ def reference(robot: Robot, state: ControlState, v: Array, params: ControllerPar
         v: the law's null-space input [rad/s] ``(nv,)``; the joint-limit avoidance is added to it.
         params: gains, damping, limits.
     """
-    kin, t, q = state.kin, state.t, state.q
-    J = kin.J_task[0]
-    r_d, rdot_d = task_target(robot, state.path, t)
-    tip = kin.tip_position[0]
-    error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
-    feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
-    xdot = feedforward + params.feedback_gain * error
-    J_sharp, lam = damped_pseudo_inverse(J, params.damping, params.singular_threshold)
-    v_total = np.asarray(v, dtype=float) + limit_avoidance(robot, q, params)
-    qdot_null = null_space_projector(J) @ v_total
-    limits = effective_velocity_limits(robot, params.velocity_scale)
-    qdot_task = J_sharp @ xdot
-    budget = null_space_budget(qdot_task, qdot_null, limits)
-    for _ in range(STEP_ITERATIONS if params.step_correction else 0):
-        xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
+    return Tracking(robot, params)(state, v)
+
+
+class Tracking:
+    """Eq. 19 with feedback, damping, task priority and the step correction (module docstring), for one arm and its
+    settings: what does not change from cycle to cycle (the speed limits, the limit avoidance's margins) is computed
+    once.
+
+    Args:
+        robot: the arm.
+        params: gains, damping, limits.
+    """
+
+    def __init__(self, robot: Robot, params: ControllerParams) -> None:
+        self.robot, self.params = robot, params
+        self._limits = effective_velocity_limits(robot, params.velocity_scale)
+        self._avoidance = LimitAvoidance(robot, params)
+        self._iterations = STEP_ITERATIONS if params.step_correction else 0
+
+    def __call__(self, state: ControlState, v: Array) -> Reference:
+        """The reference for ``state`` and the law's null-space input ``v`` [rad/s] ``(nv,)`` (the joint-limit
+        avoidance is added to it)."""
+        robot, params, limits = self.robot, self.params, self._limits
+        kin, t = state.kin, state.t
+        J = kin.J_task[0]
+        r_d, rdot_d = task_target(robot, state.path, t)
+        tip = kin.tip_position[0]
+        error = task_error(robot, state.path, r_d, tip, kin.tip_rotation[0])
+        feedforward = np.concatenate([rdot_d, np.zeros(3)]) if robot.task == "pose" else rdot_d[robot.task_rows]
+        xdot = feedforward + params.feedback_gain * error
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)  # one SVD: the damped inverse and the projector
+        J_sharp, lam = _damped_from_svd(U, s, Vt, params.damping, params.singular_threshold)
+        v_total = np.asarray(v, dtype=float) + self._avoidance(state.q)
+        qdot_null = projector_from_svd(s, Vt) @ v_total
         qdot_task = J_sharp @ xdot
         budget = null_space_budget(qdot_task, qdot_null, limits)
-    return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
-                     xdot=xdot, v=v_total, qdot_task=qdot_task, qdot_null=qdot_null, budget=budget, damping=lam)
+        for _ in range(self._iterations):
+            xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
+            qdot_task = J_sharp @ xdot
+            budget = null_space_budget(qdot_task, qdot_null, limits)
+        return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
+                         xdot=xdot, v=v_total, qdot_task=qdot_task, qdot_null=qdot_null, budget=budget, damping=lam)

@@ -24,13 +24,18 @@ import os
 import signal
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Any
 
 from previewctl.errors import PlanningWorkerError
 from previewctl.types import Array
+
+SINGLE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                                        "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")}
+"""The worker's environment beside the loop's: one BLAS/OpenMP thread. Its numbers are small matrices, and a pool of
+helper threads (one per core by default, spinning a while after each parallel call) would take cores from the loop."""
 
 GRACE = 1.0
 """How long [s] :meth:`PlanningWorker.close` waits for the worker to stop by itself, then after terminating it."""
@@ -58,7 +63,8 @@ class PlanningWorker:
         self._conn, child = context.Pipe(duplex=True)
         self._process = context.Process(target=_serve, args=(child, build, compute, niceness), daemon=True,
                                         name="previewctl-planning")
-        self._process.start()
+        with _environment(SINGLE_THREAD):  # a spawned child reads its thread counts before it imports numpy
+            self._process.start()
         child.close()
         self.pid = int(self._process.pid or 0)
         self.timeout = timeout
@@ -136,6 +142,22 @@ def _stop(process: BaseProcess, conn: Connection) -> None:
         process.kill()
         process.join()
     conn.close()
+
+
+@contextlib.contextmanager
+def _environment(values: dict[str, str]) -> Iterator[None]:
+    """``os.environ`` with ``values`` set while a child process is spawned (it copies the environment), then as it
+    was (this process's own thread pools were made when it imported numpy: unchanged)."""
+    saved = {name: os.environ.get(name) for name in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def _serve(conn: Connection, build: Callable[[], Any], compute: Compute, niceness: int) -> None:

@@ -157,8 +157,14 @@ def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
     if J.size == 0:
         return np.broadcast_to(np.eye(n), (*J.shape[:-2], n, n)).copy()
     _, s, Vt = np.linalg.svd(J, full_matrices=False)
+    return projector_from_svd(s, Vt, rank_tolerance)
+
+
+def projector_from_svd(s: Array, Vt: Array, rank_tolerance: float = 1e-9) -> Array:
+    """``N = I - V_r V_r^T`` of :func:`null_space_projector` from the singular values ``s`` ``(..., k)`` and ``V^T``
+    ``(..., k, n)`` of an SVD of ``J`` taken already (one SVD then serves the pseudo-inverse too)."""
     V_r = Vt * (s > rank_tolerance * s[..., :1])[..., None]
-    return np.eye(n) - np.swapaxes(V_r, -1, -2) @ V_r
+    return np.eye(Vt.shape[-1]) - np.swapaxes(V_r, -1, -2) @ V_r
 
 
 def elementary_symmetric(G: Array, p: int) -> Array:

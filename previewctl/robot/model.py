@@ -4,6 +4,7 @@ facts."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -87,9 +88,9 @@ class Robot:
         return tuple(dict.fromkeys(str(self.model.frames[g.parentFrame].name)
                                    for g in self.collision_model.geometryObjects if g.parentJoint == joint))
 
-    @property
+    @cached_property
     def tip_frame_id(self) -> int:
-        """Pinocchio id of the tip frame."""
+        """Pinocchio id of the tip frame (looked up once: a control cycle reads it several times)."""
         return int(self.model.getFrameId(self.tip_frame))
 
     @property

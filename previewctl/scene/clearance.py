@@ -144,7 +144,8 @@ class Clearance:
         self._uncertain = [k for k, o in enumerate(scene.obstacles) if isinstance(o.motion, Uncertain)]
         self._pair_margin = np.zeros(len(pair_links))  # [m] each pair's obstacle inflation at the scene's time
         self._revisions = self.revisions()
-        self._obstacle_centres = self._centres_at(0.0)
+        self._moving = [k for k, o in enumerate(scene.obstacles) if not isinstance(o.motion, Static)]
+        self._obstacle_centres = self._centres_at(0.0)  # (O, 3): the moving obstacles' rows are rewritten by set_time
         self._margins_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
@@ -171,10 +172,11 @@ class Clearance:
         if float(t) == self._time and revisions == self._revisions:
             return
         self._time, self._revisions = float(t), revisions
-        for obstacle, gid in zip(self.scene.obstacles, self._obstacle_ids, strict=True):
-            if not isinstance(obstacle.motion, Static):
-                self.geometry.geometryObjects[gid].placement = obstacle.placement(t)
-        self._obstacle_centres = self._centres_at(t)
+        objects = self.geometry.geometryObjects
+        for k in self._moving:
+            placement = self.scene.obstacles[k].placement(t)
+            objects[self._obstacle_ids[k]].placement = placement
+            self._obstacle_centres[k] = placement.act(self._obstacle_covers[k][0])
         self._margins_at(t)
 
     def _margins_at(self, t: float) -> None:

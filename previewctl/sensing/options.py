@@ -48,12 +48,12 @@ class Sensing(Checked):
     predictor: PredictorName | Any = "kalman"
     timeout: Positive = 1.0
     names: tuple[Text, ...] | None = None
-    process_noise: NonNegative = 0.05
+    process_noise: NonNegative = 0.01
     measurement_noise: Positive = 0.005
     velocity_noise: Positive = 0.05
     initial_speed: Positive = 1.0
     confidence: NonNegative = 2.0
-    margin_cap: NonNegative = 0.1
+    margin_cap: NonNegative = 0.03
     rate: Positive = 30.0
     noise: NonNegative = 0.005
     latency: NonNegative = 0.05

@@ -58,7 +58,7 @@ class ConstantVelocityKalman:
         initial_speed: standard deviation of the velocity before any velocity is known [m/s].
     """
 
-    def __init__(self, q: float = 0.05, r: float = 0.005, velocity_noise: float = 0.05,
+    def __init__(self, q: float = 0.01, r: float = 0.005, velocity_noise: float = 0.05,
                  initial_speed: float = 1.0) -> None:
         self.q, self.r, self.velocity_noise, self.initial_speed = q, r, velocity_noise, initial_speed
         self.t: float | None = None  # time [s] of the last observation

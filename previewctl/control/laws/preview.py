@@ -13,7 +13,7 @@ import numpy as np
 
 from previewctl.control.base import ControlState, NullInput
 from previewctl.control.imaginary import ArmPolicy
-from previewctl.control.nullspace import AmsipGradient, gain_vector, preview_pull
+from previewctl.control.nullspace import LocalTerm, gain_vector, preview_pull
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ConfigurationError
 from previewctl.robot.model import Robot
@@ -27,7 +27,8 @@ class _Preview:
         params: ``gain`` (``K_v`` [1/s]).
         policy: the imaginary arms and which configuration each stands for.
         weights: the ``k_i``, one per imaginary arm.
-        local: the AMSIP gradient term added to the pull, or ``None``.
+        local: the AMSIP gradient term added to the pull (:class:`~previewctl.control.nullspace.AmsipGradient`, or
+            its background stand-in), or ``None``.
 
     Raises:
         ConfigurationError: not one imaginary arm per weight.
@@ -36,7 +37,7 @@ class _Preview:
     name = "preview"
 
     def __init__(self, robot: Robot, params: ControllerParams, policy: ArmPolicy, weights: tuple[float, ...],
-                 local: AmsipGradient | None = None) -> None:
+                 local: LocalTerm | None = None) -> None:
         if len(policy.arms) != len(weights):
             raise ConfigurationError(f"{self.name} needs {len(weights)} imaginary arms (one per weight k_i), "
                                      f"got {len(policy.arms)}")
