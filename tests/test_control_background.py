@@ -157,6 +157,8 @@ def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
         np.testing.assert_array_equal(ctrl.last_info.targets, [TARGET] * 3)  # the worker's imaginary arms
         held.go.clear()
         k = step_until(ctrl, k, q, lambda info: held.blocked.value == 1)  # the worker holds a state
+        worker = ctrl.planning.worker  # type: ignore[union-attr]
+        answered = worker.answered
         start, ages, fallbacks = time.perf_counter(), [], []
         for _ in range(200):
             qdot = ctrl.step(q, k * DT, DT)
@@ -171,8 +173,10 @@ def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
         valid = BackgroundOptions().arms_valid_frames * ctrl.frame
         assert fallbacks == [age > valid + 1e-9 for age in ages] and fallbacks[-1]
         assert ctrl.last_info.worker_error is None  # held, not hung: within the timeout
+        assert worker.answered == answered  # the state it holds is not answered yet
         held.go.set()
         step_until(ctrl, k, q, lambda info: not info.fallback)
+        assert worker.answered > answered
         assert ctrl.last_info.plan_age is not None and ctrl.last_info.plan_age <= valid
 
 

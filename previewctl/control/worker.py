@@ -56,6 +56,7 @@ class PlanningWorker:
     Attributes:
         error: why the worker gives no result (``None`` while it answers).
         pid: the worker's process id.
+        answered: how many answers the worker has sent: its ready message, then one per state (an error counts).
     """
 
     def __init__(self, build: Callable[[], Any], compute: Compute, *, timeout: float, niceness: int) -> None:
@@ -69,6 +70,7 @@ class PlanningWorker:
         self.pid = int(self._process.pid or 0)
         self.timeout = timeout
         self.error: PlanningWorkerError | None = None
+        self.answered = 0
         self._slot: tuple[Array, float, Any] | None = None
         # perf_counter [s] of the state in flight, None when the worker is idle; its start counts as one (it answers
         # None once its parts are built), so its first state is the freshest one then, not the first one posted
@@ -103,6 +105,7 @@ class PlanningWorker:
             if self._sent_at is not None and self._conn.poll():
                 answer = self._conn.recv()
                 self._sent_at = None
+                self.answered += 1
                 if isinstance(answer, PlanningWorkerError):
                     self.error = answer
                 else:

@@ -248,7 +248,7 @@ def _row_norm(x: Array) -> Array:
 
 
 @numba.njit(cache=True, nogil=True)
-def _damped_steps(J: Array, err: Array, q: Array, clip_v: Array, lower: Array, upper: Array, damping2: float,
+def _damped_steps(J: Array, err: Array, q: Array, clip_v: NDArray[np.intp], lower: Array, upper: Array, damping2: float,
                   max_step: float, position_rows: int, out: Array) -> None:  # pragma: no cover - compiled
     """For each row: ``e`` = ``err`` scaled so that its first ``position_rows`` entries have norm at most
     ``max_step``; ``λ² = damping2 · clip(|e_pos| / max_step, 1e-3, 1)``; ``out = Jᵀ (J Jᵀ + λ² I)⁻¹ e`` (Cholesky),
