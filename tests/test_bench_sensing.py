@@ -60,7 +60,7 @@ def test_report_sets_observed_runs_beside_perfect_foresight_on_the_same_scenes(t
     text = write_report(records, [], tmp_path)[0].read_text()
     assert "| multi (observed) | qp | 3 | 67% |" in text and "| qp (observed) | qp | 4 | 25% |" in text
     assert "## Observed against perfect foresight (success < 1 mm, same scenes and seeds; observed: 30 Hz, 5 mm " \
-           "noise, 50 ms latency, dropout 0)" in text
+           "noise, 50 ms latency, dropout 0; predicted by kalman, q = 0.01 m²/s³, margin min(3 cm, 2 σ))" in text
     assert "| planar4 | multi | qp | 3 | 100% | 67% | -33 |" in text
     assert "| planar4 | qp | qp | 4 | 50% | 25% | -25 |" in text
     # preview (observed) is set against qp fed the same observations: it wins scene 2 (known qp succeeds there)

@@ -245,7 +245,9 @@ def _observed_against_known(records: list[dict[str, Any]]) -> list[str]:
         return []
     lines = [f"## Observed against perfect foresight (success < 1 mm, same scenes and seeds; observed: "
              f"{OBSERVED_SENSING.rate:g} Hz, {OBSERVED_SENSING.noise * 1e3:g} mm noise, "
-             f"{OBSERVED_SENSING.latency * 1e3:g} ms latency, dropout {OBSERVED_SENSING.dropout:g})", "",
+             f"{OBSERVED_SENSING.latency * 1e3:g} ms latency, dropout {OBSERVED_SENSING.dropout:g}; predicted by "
+             f"{OBSERVED_SENSING.predictor}, q = {OBSERVED_SENSING.process_noise:g} m²/s³, margin "
+             f"min({OBSERVED_SENSING.margin_cap * 1e2:g} cm, {OBSERVED_SENSING.confidence:g} σ))", "",
              "| robot | controller | execution | scene-seed pairs | perfect foresight | observed | "
              "difference [points] |",
              "|---|---|---|---|---|---|---|"]
