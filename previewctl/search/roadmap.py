@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from typing import Annotated
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import Field
 
 from previewctl.errors import ParameterError
@@ -232,13 +233,11 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
     samples = np.empty((len(parent), opts.substeps + 1, robot.nq))
     evaluations = 0
     sample_S = np.full((len(parent), opts.substeps + 1), -np.inf)
+    guesses, projected, projectable = _projections(robot, red, path, start, end, t0, h, opts.substeps)
     for s in range(1, opts.substeps + 2):
-        fraction = s / (opts.substeps + 1)
-        t = t0 + fraction * h
+        t = t0 + s / (opts.substeps + 1) * h
         rows = np.flatnonzero(alive)
-        guess = start[rows] + fraction * (end[rows] - start[rows])
-        guess_q = robot.configurations_from_angles(guess)
-        Q, reachable = red.solve(guess, np.zeros(len(rows), dtype=int), path.position(t), q_seed=guess_q)
+        guess, Q, reachable = guesses[s - 1, rows], projected[s - 1, rows], projectable[s - 1, rows]
         angles = _next_to(robot, robot.angles_of(Q), guess)
         within = np.all(np.abs(angles - previous[rows]) <= reach / (opts.substeps + 1) + 1e-9, axis=1)
         check = rows[reachable & within]
@@ -259,6 +258,26 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
     kept = _spread_out(previous[rows], value, opts)
     rows = rows[kept]
     return _Layer(value[kept], parent[rows], samples[rows], sample_S[rows], previous[rows]), evaluations
+
+
+def _projections(robot: Robot, red: NewtonRedundancy, path: HandPath, start: Array, end: Array, t0: float, h: float,
+                 substeps: int) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """Every move's sub-step samples, each sub-step's linear interpolation from ``start`` to ``end`` ``(R, nv)``
+    projected onto the hand target of its time by the Newton map (started from it), in one batch: the guesses
+    ``(substeps + 1, R, nv)``, the configurations ``(substeps + 1, R, nq)`` and whether each is reachable.
+
+    A row's projection does not depend on the others (:meth:`~previewctl.search.newton.NewtonRedundancy.solve_many`),
+    so this equals one projection per sub-step of the moves still alive, and pays Newton's overhead per call once a
+    step; the moves that die at an earlier sub-step are projected in vain.
+    """
+    count = substeps + 1
+    guesses = np.stack([start + s / count * (end - start) for s in range(1, count + 1)])
+    flat = guesses.reshape(-1, start.shape[1])
+    targets = [path.position(t0 + s / count * h) for s in range(1, count + 1)]
+    groups = np.repeat(np.arange(count), len(start))
+    Q, reachable = red.solve_many(flat, np.zeros(len(flat), dtype=int), targets, groups,
+                                  q_seed=robot.configurations_from_angles(flat))
+    return guesses, Q.reshape(count, len(start), -1), reachable.reshape(count, len(start))
 
 
 def _next_to(robot: Robot, angles: Array, reference: Array) -> Array:
