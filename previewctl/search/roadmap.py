@@ -44,6 +44,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
@@ -293,20 +294,50 @@ def _spread_out(Q: Array, value: Array, opts: RoadmapOptions) -> IntArray:
     """Indices of the kept nodes: half the ``beam`` the best by ``value`` (none within ``spread`` of a better kept
     one), the other half the farthest from every kept node (largest joint difference), so the beam covers the
     reachable part of the manifold and not only its best region."""
-    kept: list[int] = []
-    for i in np.argsort(-value, kind="stable"):
-        if not kept or np.min(np.max(np.abs(Q[kept] - Q[i]), axis=1)) > opts.spread:
-            kept.append(int(i))
-            if 2 * len(kept) >= opts.beam:
+    kept = np.empty(opts.beam, dtype=np.int64)
+    count = _spread(np.ascontiguousarray(Q, dtype=float), np.argsort(-value, kind="stable"), opts.spread, kept)
+    return kept[:count]
+
+
+@numba.njit(cache=True, nogil=True)
+def _spread(Q: Array, order: IntArray, spread: float, kept: IntArray) -> int:  # pragma: no cover - compiled
+    """:func:`_spread_out`'s choice in one compiled pass: fills ``kept`` (its length is the beam) and returns how many
+    nodes it kept."""
+    beam, rows, n = len(kept), Q.shape[0], Q.shape[1]
+    count = 0
+    for i in order:  # the best by value, none within spread of a kept one
+        apart = True
+        for c in range(count):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[kept[c], k] - Q[i, k]))
+            if gap <= spread:
+                apart = False
                 break
-    gap = np.min(np.max(np.abs(Q[:, None, :] - Q[kept][None, :, :]), axis=2), axis=1)
-    while len(kept) < opts.beam:
-        far = int(np.argmax(gap))
-        if gap[far] <= opts.spread:
+        if apart:
+            kept[count] = i
+            count += 1
+            if 2 * count >= beam:
+                break
+    nearest = np.full(rows, np.inf)  # each node's largest-joint distance to its nearest kept node
+    for r in range(rows):
+        for c in range(count):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[r, k] - Q[kept[c], k]))
+            nearest[r] = min(nearest[r], gap)
+    while count < beam:  # then the farthest from every kept node
+        far = int(np.argmax(nearest))
+        if nearest[far] <= spread:
             break
-        kept.append(far)
-        gap = np.minimum(gap, np.max(np.abs(Q - Q[far]), axis=1))
-    return np.array(kept, dtype=int)
+        kept[count] = far
+        count += 1
+        for r in range(rows):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[r, k] - Q[far, k]))
+            nearest[r] = min(nearest[r], gap)
+    return count
 
 
 def _motion(layers: list[_Layer], times: Array, substeps: int, end: tuple[int, int] | None = None) -> ReachMotion:
