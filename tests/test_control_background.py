@@ -142,6 +142,8 @@ def test_bad_planning_choices_name_the_valid_ones() -> None:
         pc.make_controller(planar_scenario("multi", plan_latency="measured"), planning="background")
     with pytest.raises(pc.ParameterError, match="niceness"):
         BackgroundOptions(niceness=20)
+    with pytest.raises(pc.ParameterError, match="search_niceness"):
+        BackgroundOptions(search_niceness=-1)
     with pytest.raises(pc.ParameterError, match="timeout"):
         BackgroundOptions(timeout=0.0)
 
@@ -315,9 +317,14 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
             assert time.monotonic() < deadline, f"no valid plan after {WAIT} s: {info}"
             time.sleep(0.02)  # the path's clock runs 6 times slower than the wall's: the host is shared
         assert info.plan_age is not None and info.targets is not None and info.targets.shape == (targets, 4)
+        options, own = BackgroundOptions(), os.getpriority(os.PRIO_PROCESS, 0)
         if plans is not None:  # the searches answer apart from the plans: their peaks are the plans' goals
             searched = ctrl.planning.searched  # type: ignore[union-attr]
             assert searched is not None and searched.peaks is not None and len(searched.peaks) == targets
+            assert os.getpriority(os.PRIO_PROCESS, plans.pid) == min(19, own + options.niceness)
+            assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness + options.search_niceness)
+        else:
+            assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness)
     assert all(gone(p) for p in pids) and not multiprocessing.active_children()
 
 
@@ -423,7 +430,7 @@ import previewctl as pc
 if __name__ == "__main__":
     scenario = pc.load_scenario(sys.argv[1])
     ctrl = pc.make_controller(scenario, planning="background")  # never closed: Ctrl-C ends the script
-    print(ctrl.planning.worker.pid, flush=True)
+    print(ctrl.planning.worker.pid, ctrl.planning.plans.pid, flush=True)  # multi's route: searches, plans
     q, k = np.array(scenario.q0), 0
     while True:
         q = pc.integrate(scenario.robot, q, ctrl.step(q, k * 0.004, 0.004), 0.004)
@@ -441,14 +448,15 @@ def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
                             preexec_fn=interruptible)
     try:
         assert loop.stdout is not None
-        pid = int(loop.stdout.readline())
-        time.sleep(2.0)  # the worker starts meanwhile
+        pids = [int(pid) for pid in loop.stdout.readline().split()]
+        time.sleep(2.0)  # the workers start meanwhile
         loop.send_signal(signal.SIGINT)
         loop.wait(timeout=WAIT)
     finally:
         loop.kill()
     assert loop.returncode != 0  # KeyboardInterrupt
     deadline = time.monotonic() + 30.0
-    while not gone(pid):  # the worker is not the test's child: poll until it has been reaped
-        assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
-        time.sleep(0.1)
+    for pid in pids:
+        while not gone(pid):  # the workers are not the test's children: poll until they have been reaped
+            assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
+            time.sleep(0.1)

@@ -27,7 +27,7 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
   ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
   valid result, or a worker (either of two) that crashed, failed or stopped answering, the cycle runs the ``qp`` law
   (``v = 0``; the QP execution still guards) and ``last_info`` says so (``plan_age``, ``fallback``,
-  ``worker_error``). Both workers run at the same lower OS priority.
+  ``worker_error``). The searches' worker of two runs ``search_niceness`` lower than the plans' worker.
 
 With observed obstacles (:mod:`previewctl.sensing`) the worker predicts from the same observations as the loop: each
 state posted carries the observed obstacles (their tracks: a predictor's mean, covariance and time, a few hundred
@@ -79,12 +79,16 @@ class BackgroundOptions(Checked):
         timeout: wall time [s] a posted state may stay unanswered before the worker counts as hung (its start, the
             import of the package and the rebuild of the parts, falls within the first).
         niceness: how much the worker lowers its OS priority below the loop's (``os.nice``, 0-19).
+        search_niceness: with the searches and the plans in two workers, how much further the searches' worker
+            lowers its priority below the plans' (0-19): when the cores are short, the plan the loop follows goes
+            before a generation (docs/speed.md, "Plans in a worker of their own").
     """
 
     arms_valid_frames: Positive = 3.0
     plan_valid_periods: Positive = 3.0
     timeout: Positive = 20.0
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
+    search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
 
 
 @dataclass(frozen=True)
@@ -426,11 +430,11 @@ class BackgroundPlanning:
         (:class:`Plans`)."""
         options = self.options
         side: Callable[[], object] = build
+        niceness = options.niceness
         if self._split:
-            self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout,
-                                        niceness=options.niceness)
-            side = partial(Searches, build)
-        self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=options.niceness)
+            self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout, niceness=niceness)
+            side, niceness = partial(Searches, build), min(19, niceness + options.search_niceness)
+        self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=niceness)
 
     def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
         """Post the state at a new frame (with the observed obstacles, if any), take the worker's answer if one came,
