@@ -328,6 +328,21 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
     assert all(gone(p) for p in pids) and not multiprocessing.active_children()
 
 
+@pytest.mark.parametrize("name", ["multi", "reach"])
+def test_plans_not_apart_run_in_one_worker(name: str) -> None:
+    """``plans_apart = False``: one worker makes the generations and the plans (as before the split); its answers
+    carry the plan, dated by its start, and the searches' best candidates."""
+    scenario = planar_scenario(name)
+    with pc.make_controller(scenario, planning="background", background=BackgroundOptions(plans_apart=False)) as ctrl:
+        planning = ctrl.planning
+        assert planning is not None and planning.plans is None
+        k = step_until(ctrl, 0, np.array(Q0), lambda info: not info.fallback)
+        result = planning.result  # type: ignore[attr-defined]
+        assert result is not None and result.best is not None and result.made <= (k - 1) * DT
+        assert ctrl.last_info.targets is not None and ctrl.last_info.targets.shape == (3, 4)
+    assert not multiprocessing.active_children()
+
+
 def test_a_killed_plans_worker_is_reported_and_close_leaves_no_child() -> None:
     """A route's plans' worker killed: its error, the ``qp`` fallback while the searches' worker goes on; ``close()``
     ends both."""

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Annotated
 
@@ -82,6 +82,9 @@ class BackgroundOptions(Checked):
         search_niceness: with the searches and the plans in two workers, how much further the searches' worker
             lowers its priority below the plans' (0-19): when the cores are short, the plan the loop follows goes
             before a generation (docs/speed.md, "Plans in a worker of their own").
+        plans_apart: run a part's searches and plans in two workers (``False``: one worker runs both, one process
+            fewer beside the loop, and no generation while it makes a plan; on two shared cores that kept the
+            real-time Panda runs' plans fresher: docs/speed.md, "Plans in a worker of their own").
     """
 
     arms_valid_frames: Positive = 3.0
@@ -89,6 +92,7 @@ class BackgroundOptions(Checked):
     timeout: Positive = 20.0
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
     search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
+    plans_apart: bool = True
 
 
 @dataclass(frozen=True)
@@ -283,6 +287,36 @@ class Searches:
         return _inner(self.side).searches(q, t)
 
 
+class Together:
+    """The one worker's side of a part with searches and a planner (:func:`split_parts`) when its plans do not run
+    apart (``plans_apart = False``): at each state one generation, then the planner toward its peaks.
+
+    Args:
+        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
+    """
+
+    def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
+        self.side = build()
+        self._plan: PlanningResult | None = None  # the last plan made
+
+    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+        """Take the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
+        if isinstance(self.side, ObservedSide):
+            self.side.sync(observed)
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """The searches' answer at the state ``(q, t)``, dated by the plan in use (with it if new); ``None`` before
+        the first plan."""
+        side = _inner(self.side)
+        searched = side.searches(q, t)
+        plan = side.plans(q, t, searched.peaks or [], searched.frames)
+        self._plan = plan or self._plan
+        if self._plan is None:
+            return None
+        return replace(searched, made=self._plan.made, compute=searched.compute + (plan.compute if plan else 0.0),
+                       motion=None if plan is None else plan.motion, goal=self._plan.goal, peaks=None)
+
+
 @dataclass(frozen=True)
 class PlanNews:
     """What the loop hands the plans' worker with each state: the searches' latest peaks and the observed obstacles.
@@ -431,9 +465,11 @@ class BackgroundPlanning:
         options = self.options
         side: Callable[[], object] = build
         niceness = options.niceness
-        if self._split:
+        if self._split and options.plans_apart:
             self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout, niceness=niceness)
             side, niceness = partial(Searches, build), min(19, niceness + options.search_niceness)
+        elif self._split:
+            side = partial(Together, build)
         self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=niceness)
 
     def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
@@ -492,6 +528,8 @@ class BackgroundPlanning:
             self.follower.follow(result.motion, state.t, state.q)
         if self._peaks is not None and result.motion is not None:
             self._peaks.goal = result.goal
+        if result.best is not None:  # the searches' answer too (plans not apart: Together)
+            self._searched(result)
         self.result = result
 
     def targets(self, t: float, arms: ImaginaryArms) -> Targets:
