@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 import previewctl as pc
+from previewctl.control.background import BackgroundOptions
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -33,14 +34,16 @@ DT = 0.004  # [s]
 SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
-def measure(scenario: Scenario, cycles: int, mode: str) -> str:
-    """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``); a line of
-    its numbers."""
+def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None) -> str:
+    """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``; its searches
+    and plans in two workers if ``apart``, one if not, the machine's default if ``None``); a line of its numbers."""
     robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, cpu, ages, fallbacks, errors = [], [], [], 0, set()
     results: dict[float, float] = {}
-    kind = {"name": "qp"} if mode == "qp" else {"name": "multi", "planning": "background"}
+    options = BackgroundOptions() if apart is None else BackgroundOptions(plans_apart=apart)
+    kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
+                               {"name": "multi", "planning": "background", "background": options})
     with pc.make_controller(scenario, **kind) as ctrl:
         k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
         worker = None if ctrl.planning is None else ctrl.planning.worker
@@ -88,6 +91,9 @@ def main() -> None:
     parser.add_argument("--modes", nargs="+", choices=["fast", "paced", "qp"], default=["fast", "paced", "qp"])
     parser.add_argument("--without-gradient", action="store_true",
                         help="no local term K_g grad S in the loop (panda_crossing sets with_gradient)")
+    parser.add_argument("--workers", type=int, choices=[1, 2], default=None,
+                        help="a route's searches and plans in 1 or 2 worker processes (default: the machine's, "
+                             "2 from 4 cores on)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
@@ -98,7 +104,7 @@ def main() -> None:
             params = replace(scenario.controller.params, with_gradient=False)
             scenario = replace(scenario, controller=replace(scenario.controller, params=params))
         for mode in args.modes:
-            line = measure(scenario, args.cycles, mode)
+            line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2)
             print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 

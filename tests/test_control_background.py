@@ -298,7 +298,8 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
     """Coherent ``multi`` on planar4 (points of a route: the GA and the DP), ``reach`` (the DP's plan toward the GA's
     peaks) and ``horizon`` (the DP's plan)."""
     scenario = planar_scenario(name)
-    with pc.make_controller(scenario, planning="background") as ctrl:
+    apart = BackgroundOptions(plans_apart=True)  # the default on 4 cores or more (test below)
+    with pc.make_controller(scenario, planning="background", background=apart) as ctrl:
         assert ctrl.describe().planner == "dp" and ctrl.describe().planning == "background"
         pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
         plans = ctrl.planning.plans  # type: ignore[union-attr]
@@ -328,6 +329,13 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
     assert all(gone(p) for p in pids) and not multiprocessing.active_children()
 
 
+@pytest.mark.parametrize(("cores", "apart"), [(None, False), (2, False), (3, False), (4, True), (16, True)])
+def test_plans_run_apart_by_default_on_four_cores_or_more(monkeypatch: pytest.MonkeyPatch, cores: int | None,
+                                                          apart: bool) -> None:
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    assert BackgroundOptions().plans_apart is apart
+
+
 @pytest.mark.parametrize("name", ["multi", "reach"])
 def test_plans_not_apart_run_in_one_worker(name: str) -> None:
     """``plans_apart = False``: one worker makes the generations and the plans (as before the split); its answers
@@ -348,7 +356,7 @@ def test_a_killed_plans_worker_is_reported_and_close_leaves_no_child() -> None:
     ends both."""
     scenario = planar_scenario("multi")
     q = np.array(Q0)
-    ctrl = pc.make_controller(scenario, planning="background")
+    ctrl = pc.make_controller(scenario, planning="background", background=BackgroundOptions(plans_apart=True))
     k = step_until(ctrl, 0, q, lambda info: not info.fallback)
     searches, plans = ctrl.planning.worker, ctrl.planning.plans  # type: ignore[union-attr]
     assert plans is not None and plans.pid != searches.pid

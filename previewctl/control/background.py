@@ -41,9 +41,10 @@ fast the worker is).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Annotated
 
@@ -66,6 +67,10 @@ from previewctl.sensing.track import Track
 from previewctl.types import Array
 from previewctl.validation import Checked, Integer, Positive
 
+APART_CORES = 4
+"""The cores from which a route's searches and plans run in two workers by default (the loop, two workers and the
+simulator's or the robot's own processes)."""
+
 
 @dataclass(frozen=True)
 class BackgroundOptions(Checked):
@@ -83,8 +88,9 @@ class BackgroundOptions(Checked):
             lowers its priority below the plans' (0-19): when the cores are short, the plan the loop follows goes
             before a generation (docs/speed.md, "Plans in a worker of their own").
         plans_apart: run a part's searches and plans in two workers (``False``: one worker runs both, one process
-            fewer beside the loop, and no generation while it makes a plan; on two shared cores that kept the
-            real-time Panda runs' plans fresher: docs/speed.md, "Plans in a worker of their own").
+            fewer beside the loop, and no generation while it makes a plan). Default: two workers on a machine of
+            at least :data:`APART_CORES` cores; on two shared cores one worker kept the real-time Panda runs' plans
+            fresher (docs/speed.md, "Plans in a worker of their own").
     """
 
     arms_valid_frames: Positive = 3.0
@@ -92,7 +98,7 @@ class BackgroundOptions(Checked):
     timeout: Positive = 20.0
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
     search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
-    plans_apart: bool = True
+    plans_apart: bool = field(default_factory=lambda: (os.cpu_count() or 1) >= APART_CORES)
 
 
 @dataclass(frozen=True)
