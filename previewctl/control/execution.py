@@ -172,6 +172,10 @@ class QPExecution:
         self_clearance = self.clearance.self_clearance
         self._self_support = (support_mask(robot.model, self_clearance.joint_a),
                               support_mask(robot.model, self_clearance.joint_b))
+        self._no_rows = np.zeros((0, robot.nv))  # read only: the rows of a cycle without a pair within reach
+        self._no_rows.flags.writeable = False
+        self._no_pairs = np.zeros(0, dtype=int)
+        self._no_pairs.flags.writeable = False
         self._velocities = np.zeros((len(scene.obstacles), 3))
         self._velocity_time = np.nan
         self._velocity_revisions = self.clearance.revisions()
@@ -188,21 +192,27 @@ class QPExecution:
             data, J = joint_data, joint_data.J
         self.clearance.set_time(t)
         near, w = self.clearance.witnesses(data, within=p.influence_distance)
-        # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
-        # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
-        G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
-        obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
-        obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
-        approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
+        if near.size:
+            # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
+            # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
+            G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
+            obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
+            obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
+            approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
+            h = approach + obstacle_speed
+        else:  # no pair within reach: no row (most cycles)
+            G, h = self._no_rows, w.distance
         if not len(self.robot.self_pairs):
-            return Dampers(G, approach + obstacle_speed, w.distance, near, np.zeros(0, dtype=int))
+            return Dampers(G, h, w.distance, near, self._no_pairs)
         s = self.clearance.self_witnesses(data, within=p.self_influence_distance)
+        if not s.pairs.size:
+            return Dampers(G, h, w.distance, near, s.pairs)
         support_a, support_b = self._self_support[0][s.pairs], self._self_support[1][s.pairs]
         G_self = ((s.normal @ J[:3] + _cross(s.point_a, s.normal) @ J[3:]) * support_a
                   - (s.normal @ J[:3] + _cross(s.point_b, s.normal) @ J[3:]) * support_b)
         h_self = p.damper_gain * (s.distance - p.self_safety_distance) / (p.self_influence_distance
                                                                           - p.self_safety_distance)
-        return Dampers(np.vstack([G, G_self]), np.concatenate([approach + obstacle_speed, h_self]),
+        return Dampers(np.vstack([G, G_self]), np.concatenate([h, h_self]),
                        np.concatenate([w.distance, s.distance]), near, s.pairs)
 
     def _obstacle_velocities(self, t: float) -> Array:
