@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -136,14 +137,25 @@ def null_space_budget(qdot_task: Array, qdot_null: Array, limits: Array) -> floa
         qdot_null: the null-space term [rad/s], ``(nv,)``.
         limits: joint speed limits [rad/s] (``inf`` = none), ``(nv,)``.
     """
-    if (np.abs(qdot_task) > limits).any():
-        return 0.0
-    over = (np.abs(qdot_task + qdot_null) > limits) & (qdot_null != 0.0)  # an infinite limit is never exceeded
-    if not over.any():
+    return float(_budget(np.asarray(qdot_task, dtype=float), np.asarray(qdot_null, dtype=float),
+                         np.asarray(limits, dtype=float)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _budget(qdot_task: Array, qdot_null: Array, limits: Array) -> float:  # pragma: no cover - compiled
+    """:func:`null_space_budget`, one compiled loop instead of a dozen small array operations per call."""
+    for j in range(qdot_task.size):
+        if abs(qdot_task[j]) > limits[j]:
+            return 0.0
+    alpha = math.inf
+    for j in range(qdot_task.size):
+        b = qdot_null[j]
+        if b != 0.0 and abs(qdot_task[j] + b) > limits[j]:  # an infinite limit is never exceeded
+            alpha = min(alpha, (math.copysign(limits[j], b) - qdot_task[j]) / b)
+    if alpha == math.inf:
         return 1.0
-    b = qdot_null[over]
-    alpha = float(((np.copysign(limits[over], b) - qdot_task[over]) / b).min())
-    return max(0.0, min(1.0, alpha))
+    alpha = alpha if alpha < 1.0 else 1.0  # max(0, min(1, α)) as Python's builtins take it, -0.0 included
+    return alpha if alpha > 0.0 else 0.0
 
 
 def task_target(robot: Robot, path: HandPath, t: float) -> tuple[Array, Array]:
