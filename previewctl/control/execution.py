@@ -62,6 +62,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pinocchio as pin
 import qpsolvers
@@ -234,10 +235,9 @@ class QPExecution:
         Towards a limit at distance ``a ≥ 0`` the bound is ``min(q̇max, q̇max · a / margin, a / dt)``, i.e.
         ``min(q̇max, a · min(q̇max / margin, 1 / dt))``; a joint without limits (``a = ∞``) keeps ``q̇max``.
         """
-        position = np.asarray(q, dtype=float)[self._index]
-        rate = np.minimum(self._brake_rate, 1.0 / dt)
-        upper = np.minimum(self._speed, np.maximum(self._upper - position, 0.0) * rate)
-        lower = -np.minimum(self._speed, np.maximum(position - self._lower, 0.0) * rate)
+        lower, upper = np.empty(self._index.size), np.empty(self._index.size)
+        _braking_bounds(np.asarray(q, dtype=float), self._index, self._lower, self._upper, self._speed,
+                        self._brake_rate, 1.0 / dt, lower, upper)
         return lower, upper
 
     def __call__(self, state: ControlState, reference: Reference) -> Executed:
@@ -292,3 +292,19 @@ class QPExecution:
         slack = x[nv:]
         solved = qpsolvers.solve_qp(P, c, rows.G, rows.h + slack + _ACTIVE_TOL, lb=lower, ub=upper, solver=SOLVER)
         return (x[:nv] if solved is None else solved), float(slack.max(initial=0.0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _braking_bounds(q: Array, index: IntArray, low: Array, high: Array, speed: Array, brake_rate: Array,
+                    inverse_dt: float, lower: Array, upper: Array) -> None:  # pragma: no cover - compiled
+    """:meth:`QPExecution.bounds` into ``lower`` and ``upper``, one compiled loop (``np.minimum``/``np.maximum`` as
+    numpy takes them, signed zeros included)."""
+    for j in range(index.size):
+        position = q[index[j]]
+        rate = brake_rate[j] if brake_rate[j] <= inverse_dt else inverse_dt
+        room = high[j] - position
+        room = (room if room >= 0.0 else 0.0) * rate
+        upper[j] = speed[j] if speed[j] <= room else room
+        room = position - low[j]
+        room = (room if room >= 0.0 else 0.0) * rate
+        lower[j] = -(speed[j] if speed[j] <= room else room)
