@@ -73,6 +73,7 @@ from previewctl.control.saturation import saturate
 from previewctl.control.tracking import (
     STEP_ITERATIONS,
     damped_pseudo_inverse,
+    desired_position,
     effective_velocity_limits,
     step_correction,
     velocity_box,
@@ -255,8 +256,10 @@ class QPExecution:
             c = -P @ requested
             qdot, slack = self._solve(P, c, rows, lower, upper)
             # the reference corrected eq. 19's step for the q̇ it asked for; the QP runs another: correct for that
-            for _ in range(STEP_ITERATIONS if self.params.step_correction else 0):
-                c = c - W * (J.T @ step_correction(self.robot, state, qdot, reference.task_error, self.params))
+            iterations = STEP_ITERATIONS if self.params.step_correction else 0
+            r_next = desired_position(state.path, t + state.dt) if iterations else None
+            for _ in range(iterations):
+                c = c - W * (J.T @ step_correction(self.robot, state, qdot, reference.task_error, self.params, r_next))
                 qdot, slack = self._solve(P, c, rows, lower, upper)
         active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL)) if rows.h.size else 0
         clamped = _clamped(qdot, lower, upper, _ACTIVE_TOL)

@@ -181,19 +181,21 @@ def task_error(robot: Robot, path: HandPath, r_d: Array, tip: Array, rotation: A
     return (r_d - tip)[robot.task_rows]
 
 
-def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array, params: ControllerParams) -> Array:
+def step_correction(robot: Robot, state: ControlState, qdot: Array, error: Array, params: ControllerParams,
+                    r_next: Array | None = None) -> Array:
     """What to add to eq. 19's task velocity [m/s, rad/s] so that ``qdot`` held for ``dt`` leaves the error the
     continuous law would: ``(e(t + dt) − exp(−K_p dt) e(t)) / dt``, with ``e(t + dt)`` predicted by forward
     kinematics at ``q ⊕ q̇ dt``.
 
     Holding eq. 19's command over a period misses the path by the hand's second-order motion (the null-space
     motion is null for ``J`` at ``q`` only) and by the path's own turns within the period; both are removed to
-    first order, at the cost of one forward kinematics per call.
+    first order, at the cost of one forward kinematics per call. ``r_next``: the desired position at ``t + dt``
+    (:func:`desired_position`) if computed already.
     """
     dt = state.dt
     data = state.data if state.data is not None else robot.model.createData()
     tip, rotation = hand_placement(robot, pin.integrate(robot.model, state.q, qdot * dt), data)
-    r_d = desired_position(state.path, state.t + dt)
+    r_d = desired_position(state.path, state.t + dt) if r_next is None else r_next
     predicted = task_error(robot, state.path, r_d, tip, rotation)
     return np.asarray((predicted - math.exp(-params.feedback_gain * dt) * error) / dt, dtype=float)
 
@@ -244,8 +246,9 @@ class Tracking:
         qdot_null = projector_from_svd(s, Vt) @ v_total
         qdot_task = J_sharp @ xdot
         budget = null_space_budget(qdot_task, qdot_null, limits)
+        r_next = desired_position(state.path, t + state.dt) if self._iterations else None
         for _ in range(self._iterations):
-            xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params)
+            xdot = xdot + step_correction(robot, state, qdot_task + budget * qdot_null, error, params, r_next)
             qdot_task = J_sharp @ xdot
             budget = null_space_budget(qdot_task, qdot_null, limits)
         return Reference(desired_position=r_d, desired_velocity=rdot_d, hand_position=tip, task_error=error, J=J,
