@@ -94,6 +94,8 @@ def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int
     diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
     wrap = robot.joints.full_turn & ~robot.joints.continuous
     wrap[list(keep)] = False
+    if not wrap.any():  # nothing to wrap (e.g. a plan's targets, ``keep`` every index): the plain difference
+        return diff
     return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
 
 
