@@ -91,9 +91,19 @@ def wrapped_difference(robot: Robot, q: Array, target: Array, *, keep: tuple[int
 
     Continuous joints need no wrapping: ``pin.difference`` already returns their angle.
     """
-    diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
+    return _wrapped(robot, q, target, _wrapping(robot, keep))
+
+
+def _wrapping(robot: Robot, keep: tuple[int, ...]) -> BoolArray:
+    """The velocity indices that :func:`wrapped_difference` wraps ``(nv,)``."""
     wrap = robot.joints.full_turn & ~robot.joints.continuous
     wrap[list(keep)] = False
+    return wrap
+
+
+def _wrapped(robot: Robot, q: Array, target: Array, wrap: BoolArray) -> Array:
+    """``target ⊖ q`` with the indices ``wrap`` wrapped into [−π, π)."""
+    diff = np.asarray(pin.difference(robot.model, q, target), dtype=np.float64)
     if not wrap.any():  # nothing to wrap (e.g. a plan's targets, ``keep`` every index): the plain difference
         return diff
     return np.where(wrap, (diff + np.pi) % FULL_TURN - np.pi, diff)
@@ -104,8 +114,9 @@ def preview_pull(robot: Robot, q: Array, targets: Array, weights: Array, *, keep
     :func:`wrapped_difference` takes it (``keep`` every index: plain differences, for targets unwrapped along a
     plan)."""
     pull = np.zeros(robot.nv)
+    wrap = _wrapping(robot, keep)
     for k, target in zip(weights, targets, strict=True):
-        pull += k * wrapped_difference(robot, q, target, keep=keep)
+        pull += k * _wrapped(robot, q, target, wrap)
     return pull
 
 
