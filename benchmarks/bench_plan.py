@@ -14,7 +14,8 @@ scenes of a bench folder's ``scenes.jsonl`` (``--bench-folder``, e.g. the ``--ou
 panda``; without it, or when it holds none, only the shipped scenarios run, and it is said so). ``--save FILE``
 keeps the recorded calls and the plans they made (a pickle of plain fields);
 ``--load FILE`` replays them without running the scenes again and counts the plans that come out different
-(a speed-up that must not change the plans shows 0).
+(a speed-up that must not change the plans shows 0); with ``--save FILE`` too, it keeps the calls with the plans this
+code made (a baseline for a later code, when the recorded plans came from an older one).
 
 Run: ``PYTHONPATH=. python benchmarks/bench_plan.py [--quick] [--save calls.pkl | --load calls.pkl]``.
 ``--quick``: the Panda crossing scene only, ``horizon`` only, its first second (a smoke run).
@@ -127,10 +128,11 @@ def record(args: argparse.Namespace) -> tuple[list[Call], dict[str, World]]:
     return calls, worlds
 
 
-def replay(calls: list[Call], worlds: dict[str, World], repeat: int) -> dict[str, list[float]]:
-    """CPU time [s] of every call (the least of ``repeat`` runs), per robot; prints how many plans differ from the
-    recorded ones."""
+def replay(calls: list[Call], worlds: dict[str, World], repeat: int) -> tuple[dict[str, list[float]], list[Call]]:
+    """CPU time [s] of every call (the least of ``repeat`` runs), per robot, and the calls with the plans replayed;
+    prints how many plans differ from the recorded ones."""
     times: dict[str, list[float]] = {}
+    replayed: list[Call] = []
     changed = 0
     for call in calls[:1]:  # once untimed: one-time costs (the compiled kernels' loading) are no plan's
         world = worlds[call.scene]
@@ -147,8 +149,15 @@ def replay(calls: list[Call], worlds: dict[str, World], repeat: int) -> dict[str
             spent.append(time.process_time() - start)
         times.setdefault(robot.name, []).append(min(spent))
         changed += not np.array_equal(found.motion.q, call.motion)
+        replayed.append(dataclasses.replace(call, motion=found.motion.q.copy()))
     print(f"{len(calls)} plans replayed, {changed} differ from the recorded ones")
-    return times
+    return times, replayed
+
+
+def _save(file: Path, calls: list[Call], worlds: dict[str, World]) -> None:
+    """Keep ``calls`` and their scenes' sources in ``file`` (a pickle of plain fields)."""
+    sources = {name: world.source for name, world in worlds.items()}
+    file.write_bytes(pickle.dumps(([vars(call) for call in calls], sources)))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -159,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bench-folder", type=Path, metavar="DIR",
                         help="a previewctl bench output folder whose Panda scenes to add (default: none)")
     parser.add_argument("--repeat", type=int, default=1, help="time each plan this many times, keep the least")
-    parser.add_argument("--save", type=Path, help="keep the recorded calls in this file")
+    parser.add_argument("--save", type=Path, help="keep the recorded (with --load: the replayed) calls in this file")
     parser.add_argument("--load", type=Path, help="replay the calls kept in this file instead of running scenes")
     args = parser.parse_args(argv)
     if args.load:
@@ -169,10 +178,11 @@ def main(argv: list[str] | None = None) -> int:
     else:
         calls, worlds = record(args)
         if args.save:
-            sources = {name: world.source for name, world in worlds.items()}
-            args.save.write_bytes(pickle.dumps(([vars(call) for call in calls], sources)))
+            _save(args.save, calls, worlds)
     replans = {worlds[c.scene].evaluator.robot.name: worlds[c.scene].replan for c in calls}
-    times = replay(calls, worlds, args.repeat)
+    times, replayed = replay(calls, worlds, args.repeat)
+    if args.load and args.save:
+        _save(args.save, replayed, worlds)
     print(f"{'robot':8s} {'plans':>5s} {'p50 [s]':>8s} {'p95 [s]':>8s} {'max [s]':>8s} {'period':>7s}  "
           "p50/period p95/period max/period")
     for robot, spent in times.items():

@@ -12,7 +12,7 @@ import pytest
 from previewctl.bench.keep import run_folder
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.runs import OBSERVED_SENSING, RunSpec, record_key, simulate_spec
+from previewctl.bench.runs import OBSERVED_SENSING, RunSpec, record_key, sensing_summary, simulate_spec
 from previewctl.bench.scenes import BenchScene
 from previewctl.bench.sweep import Sweep
 from previewctl.cli.main import main
@@ -57,10 +57,14 @@ def test_report_sets_observed_runs_beside_perfect_foresight_on_the_same_scenes(t
     records = [_record(s, "multi", True) for s in range(4)] + [_record(s, "qp", s < 2) for s in range(4)]
     records += [_record(s, "multi", s != 1, "observed") for s in range(3)]  # scene 3 not observed: left out
     records += [_record(s, "qp", s == 0, "observed") for s in range(4)]
+    fed = sensing_summary(OBSERVED_SENSING)
+    for r in records[8:-1]:
+        r["sensing_settings"] = fed
     text = write_report(records, [], tmp_path)[0].read_text()
     assert "| multi (observed) | qp | 3 | 67% |" in text and "| qp (observed) | qp | 4 | 25% |" in text
-    assert "## Observed against perfect foresight (success < 1 mm, same scenes and seeds; observed: 30 Hz, 5 mm " \
-           "noise, 50 ms latency, dropout 0; predicted by kalman, q = 0.01 m²/s³, margin min(3 cm, 2 σ))" in text
+    assert "## Observed against perfect foresight (success < 1 mm, same scenes and seeds)\n\nObserved runs: 6 with " \
+           "30 Hz, 5 mm noise, 50 ms latency, dropout 0; predicted by kalman, q = 0.01 m²/s³, margin min(3 cm, 2 σ); " \
+           "and 1 with settings not recorded.\n" in text  # what each run recorded, not today's defaults
     assert "| planar4 | multi | qp | 3 | 100% | 67% | -33 |" in text
     assert "| planar4 | qp | qp | 4 | 50% | 25% | -25 |" in text
     # preview (observed) is set against qp fed the same observations: it wins scene 2 (known qp succeeds there)

@@ -142,6 +142,8 @@ def test_bad_planning_choices_name_the_valid_ones() -> None:
         pc.make_controller(planar_scenario("multi", plan_latency="measured"), planning="background")
     with pytest.raises(pc.ParameterError, match="niceness"):
         BackgroundOptions(niceness=20)
+    with pytest.raises(pc.ParameterError, match="search_niceness"):
+        BackgroundOptions(search_niceness=-1)
     with pytest.raises(pc.ParameterError, match="timeout"):
         BackgroundOptions(timeout=0.0)
 
@@ -299,6 +301,9 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
     with pc.make_controller(scenario, planning="background") as ctrl:
         assert ctrl.describe().planner == "dp" and ctrl.describe().planning == "background"
         pid = ctrl.planning.worker.pid  # type: ignore[union-attr]
+        plans = ctrl.planning.plans  # type: ignore[union-attr]
+        assert (plans is None) == (name == "horizon")  # a route's plans in a worker of their own
+        pids = [pid] if plans is None else [pid, plans.pid]
         q, k, robot = np.array(scenario.q0), 0, scenario.robot
         deadline = time.monotonic() + WAIT
         used = 0
@@ -312,11 +317,54 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
             assert time.monotonic() < deadline, f"no valid plan after {WAIT} s: {info}"
             time.sleep(0.02)  # the path's clock runs 6 times slower than the wall's: the host is shared
         assert info.plan_age is not None and info.targets is not None and info.targets.shape == (targets, 4)
-    assert gone(pid) and not multiprocessing.active_children()
+        options, own = BackgroundOptions(), os.getpriority(os.PRIO_PROCESS, 0)
+        if plans is not None:  # the searches answer apart from the plans: their peaks are the plans' goals
+            searched = ctrl.planning.searched  # type: ignore[union-attr]
+            assert searched is not None and searched.peaks is not None and len(searched.peaks) == targets
+            assert os.getpriority(os.PRIO_PROCESS, plans.pid) == min(19, own + options.niceness)
+            assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness + options.search_niceness)
+        else:
+            assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness)
+    assert all(gone(p) for p in pids) and not multiprocessing.active_children()
 
 
-def test_the_worker_side_answers_as_inline_planning(planar4: Robot) -> None:
-    """Run in this process: the worker's computation gives the plan the inline route policy follows."""
+@pytest.mark.parametrize("name", ["multi", "reach"])
+def test_plans_not_apart_run_in_one_worker(name: str) -> None:
+    """``plans_apart = False``: one worker makes the generations and the plans (as before the split); its answers
+    carry the plan, dated by its start, and the searches' best candidates."""
+    scenario = planar_scenario(name)
+    with pc.make_controller(scenario, planning="background", background=BackgroundOptions(plans_apart=False)) as ctrl:
+        planning = ctrl.planning
+        assert planning is not None and planning.plans is None
+        k = step_until(ctrl, 0, np.array(Q0), lambda info: not info.fallback)
+        result = planning.result  # type: ignore[attr-defined]
+        assert result is not None and result.best is not None and result.made <= (k - 1) * DT
+        assert ctrl.last_info.targets is not None and ctrl.last_info.targets.shape == (3, 4)
+    assert not multiprocessing.active_children()
+
+
+def test_a_killed_plans_worker_is_reported_and_close_leaves_no_child() -> None:
+    """A route's plans' worker killed: its error, the ``qp`` fallback while the searches' worker goes on; ``close()``
+    ends both."""
+    scenario = planar_scenario("multi")
+    q = np.array(Q0)
+    ctrl = pc.make_controller(scenario, planning="background")
+    k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+    searches, plans = ctrl.planning.worker, ctrl.planning.plans  # type: ignore[union-attr]
+    assert plans is not None and plans.pid != searches.pid
+    os.kill(plans.pid, signal.SIGKILL)
+    k = step_until(ctrl, k, q, lambda info: info.worker_error is not None)
+    assert f"pid {plans.pid}) exited with code -9" in str(ctrl.last_info.worker_error) and ctrl.last_info.fallback
+    answered = searches.answered
+    step_until(ctrl, k, q, lambda info: searches.answered > answered)  # no hang: the searches answer on
+    assert ctrl.last_info.fallback and searches.error is None
+    ctrl.close()
+    assert gone(plans.pid) and gone(searches.pid) and not multiprocessing.active_children()
+
+
+def test_the_worker_sides_answer_as_inline_planning(planar4: Robot) -> None:
+    """Run in this process: the searches' answer and then the plans' on its peaks give the plan the inline route
+    policy follows; the one-worker call refuses a part that runs in two."""
     scenario = planar_scenario("multi")
     inline = pc.make_controller(scenario)
     inline.step(np.array(Q0), 0.0, DT)
@@ -324,16 +372,25 @@ def test_the_worker_side_answers_as_inline_planning(planar4: Robot) -> None:
 
     side = planning_side(replace(scenario.controller), scenario.robot, scenario.path, scenario.scene, scenario.index,
                          scenario.potential, np.random.default_rng(scenario.seed), 0.033, None)
-    result = side(np.array(Q0), 0.0)
+    searched = side.searches(np.array(Q0), 0.0)
+    assert searched.peaks is not None and len(searched.peaks) == 3 and searched.frames == 1
+    assert searched.motion is None and searched.best is not None
+    result = side.plans(np.array(Q0), 0.0, searched.peaks, searched.frames)
     assert result is not None and result.motion is not None and result.made == 0.0 and result.compute > 0
     followed = inline.law.policy.planner.planner.motion  # type: ignore[attr-defined]
     np.testing.assert_array_equal(result.motion.q, followed.q)
-    assert side(np.array(Q0), 0.01) is None  # the same plan: nothing new
+    assert side.plans(np.array(Q0), 0.01, searched.peaks, searched.frames) is None  # the same plan: nothing new
+    with pytest.raises(pc.ConfigurationError, match=r"run in two workers: searches\(\) and plans\(\)"):
+        side(np.array(Q0), 0.02)
+    horizon = planning_side(planar_scenario("horizon").controller, scenario.robot, scenario.path, scenario.scene,
+                            scenario.index, scenario.potential, np.random.default_rng(0), 0.033, None)
+    with pytest.raises(pc.ConfigurationError, match="no searches and planner to run apart: the call answers"):
+        horizon.searches(np.array(Q0), 0.0)
 
 
 def test_the_worker_side_carries_the_gradient_at_the_state_posted(planar4: Robot) -> None:
-    """With ``with_gradient`` each answer carries ``∇_q S`` at the state posted, bit for bit the inline term's; a route
-    whose plan did not change still answers, with the new gradient and no plan."""
+    """With ``with_gradient`` each answer carries ``∇_q S`` at the state posted, bit for bit the inline term's: the
+    targets' answer, and a route's searches' (its plans come apart)."""
     from previewctl.control.factory import planning_side
 
     ascent = pc.make_controller(planar_scenario("gradient")).law.ascent  # type: ignore[attr-defined]
@@ -342,13 +399,12 @@ def test_the_worker_side_carries_the_gradient_at_the_state_posted(planar4: Robot
         scenario = planar_scenario("multi", with_gradient=True, coherent=coherent)
         side = planning_side(scenario.controller, scenario.robot, scenario.path, scenario.scene, scenario.index,
                              scenario.potential, np.random.default_rng(0), 0.033, fixed_search)
-        first, again = side(q, 0.0), side(q, 0.033)
+        answer = side.searches if coherent else side  # a route's searches answer apart from its plans
+        first, again = answer(q, 0.0), answer(q, 0.033)
         assert first is not None and again is not None
         for result, t in ((first, 0.0), (again, 0.033)):
             assert result.local is not None and result.local[0] == t
             np.testing.assert_array_equal(result.local[1], ascent.gradient(q, t))
-        if coherent:
-            assert first.motion is not None and again.motion is None and again.made == first.made
 
 
 def test_the_loop_applies_the_workers_gradient_while_it_is_valid() -> None:
@@ -389,7 +445,7 @@ import previewctl as pc
 if __name__ == "__main__":
     scenario = pc.load_scenario(sys.argv[1])
     ctrl = pc.make_controller(scenario, planning="background")  # never closed: Ctrl-C ends the script
-    print(ctrl.planning.worker.pid, flush=True)
+    print(ctrl.planning.worker.pid, ctrl.planning.plans.pid, flush=True)  # multi's route: searches, plans
     q, k = np.array(scenario.q0), 0
     while True:
         q = pc.integrate(scenario.robot, q, ctrl.step(q, k * 0.004, 0.004), 0.004)
@@ -407,14 +463,15 @@ def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
                             preexec_fn=interruptible)
     try:
         assert loop.stdout is not None
-        pid = int(loop.stdout.readline())
-        time.sleep(2.0)  # the worker starts meanwhile
+        pids = [int(pid) for pid in loop.stdout.readline().split()]
+        time.sleep(2.0)  # the workers start meanwhile
         loop.send_signal(signal.SIGINT)
         loop.wait(timeout=WAIT)
     finally:
         loop.kill()
     assert loop.returncode != 0  # KeyboardInterrupt
     deadline = time.monotonic() + 30.0
-    while not gone(pid):  # the worker is not the test's child: poll until it has been reaped
-        assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
-        time.sleep(0.1)
+    for pid in pids:
+        while not gone(pid):  # the workers are not the test's children: poll until they have been reaped
+            assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
+            time.sleep(0.1)

@@ -136,3 +136,13 @@ def test_a_controller_with_a_measured_latency_follows_each_plan_from_its_arrival
         assert float(planner.motion.times[0]) == pytest.approx(expected), t
         q = integrate(scenario.robot, q, qdot, dt)
     assert len(planner.costs) == len(made) >= 3 and all(c > 0 for c in planner.costs)
+
+
+def test_a_plan_with_too_little_path_left_for_one_grid_step_holds_instead_of_failing(scenario: Scenario) -> None:
+    """5 ms before the path's end no joint can move one 4° cell: the DP is not asked (it refuses such a step with a
+    ConfigurationError, which a replan there raised: one made on arrival of a plan with a measured latency can fall
+    anywhere), and the plan holds the arm (one sample, no step)."""
+    planner = _planner(scenario, [0.01] * 2)
+    end = scenario.path.end_time
+    held = planner.plan(_state(scenario, end - 0.005))
+    assert held.times.tolist() == [end - 0.005] and np.isnan(held.min_S)

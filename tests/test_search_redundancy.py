@@ -186,17 +186,23 @@ def test_newton_unreachable_target_is_flagged_and_scores_negative(panda: Robot) 
 
 
 def test_newton_solve_many_equals_solve_per_target(panda: Robot) -> None:
-    """Rows aimed at different targets in one call give exactly what one call per target gives."""
+    """Rows aimed at different targets in one call give exactly what one call per target gives, warm-started or
+    not."""
     red = NewtonRedundancy(panda)
     genes = np.random.default_rng(8).uniform(red.gene_lower, red.gene_upper, (12, panda.nv))
     targets = [np.array([0.45, 0.1, 0.45]), np.array([0.3, -0.3, 0.6])]
     groups = np.array([0, 1] * 6)
     Q, ok = red.solve_many(genes, np.zeros(12, dtype=int), targets, groups)
+    seeds = genes + 0.05  # warm starts away from the genes: the roadmap's sub-steps start from their guesses
+    Q_seeded, ok_seeded = red.solve_many(genes, np.zeros(12, dtype=int), targets, groups, q_seed=seeds)
     for k, target in enumerate(targets):
         Qk, okk = red.solve(genes[groups == k], np.zeros(6, dtype=int), target)
         np.testing.assert_array_equal(Q[groups == k], Qk)
         np.testing.assert_array_equal(ok[groups == k], okk)
-    assert ok.any()
+        Qk, okk = red.solve(genes[groups == k], np.zeros(6, dtype=int), target, q_seed=seeds[groups == k])
+        np.testing.assert_array_equal(Q_seeded[groups == k], Qk)
+        np.testing.assert_array_equal(ok_seeded[groups == k], okk)
+    assert ok.any() and not np.array_equal(Q, Q_seeded)
     for bad in (np.array([0, 2] * 6), np.zeros(5, dtype=int), np.full(12, 0.5)):
         with pytest.raises(ConfigurationError, match="groups"):
             red.solve_many(genes, np.zeros(12, dtype=int), targets, bad)

@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import re
 import statistics
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any
 
 from previewctl.bench.keep import CONTRAST, RUNS_FOLDER, contrasts, run_folder, runs_to_keep
 from previewctl.bench.pink import BARRIER_GAINS
 from previewctl.bench.provenance import UNKNOWN, now
-from previewctl.bench.runs import INLINE, KNOWN, OBSERVED_SENSING, record_key
+from previewctl.bench.runs import INLINE, KNOWN, record_key
 from previewctl.control import params as control_params
 from previewctl.files import atomic_write_bytes
 from previewctl.viz.bench import plot_success
@@ -243,11 +243,10 @@ def _observed_against_known(records: list[dict[str, Any]]) -> list[str]:
                 (bool(known[key]["success_1mm"]), bool(r["success_1mm"])))
     if not pairs:
         return []
-    lines = [f"## Observed against perfect foresight (success < 1 mm, same scenes and seeds; observed: "
-             f"{OBSERVED_SENSING.rate:g} Hz, {OBSERVED_SENSING.noise * 1e3:g} mm noise, "
-             f"{OBSERVED_SENSING.latency * 1e3:g} ms latency, dropout {OBSERVED_SENSING.dropout:g}; predicted by "
-             f"{OBSERVED_SENSING.predictor}, q = {OBSERVED_SENSING.process_noise:g} m²/s³, margin "
-             f"min({OBSERVED_SENSING.margin_cap * 1e2:g} cm, {OBSERVED_SENSING.confidence:g} σ))", "",
+    fed = Counter(str(r.get("sensing_settings", "settings not recorded")) for r in observed.values())
+    lines = ["## Observed against perfect foresight (success < 1 mm, same scenes and seeds)", "",
+             "Observed runs: " + "; and ".join(f"{n} with {settings}" for settings, n in sorted(fed.items())) + ".",
+             "",
              "| robot | controller | execution | scene-seed pairs | perfect foresight | observed | "
              "difference [points] |",
              "|---|---|---|---|---|---|---|"]

@@ -191,6 +191,13 @@ def plan_costs(costs: list[float]) -> dict[str, Any]:
             "plan_cpu_max": ordered[-1]}
 
 
+def sensing_summary(sensing: Sensing) -> str:
+    """What an observed run was fed and predicted with, in one line (the result line's ``sensing_settings``)."""
+    return (f"{sensing.rate:g} Hz, {sensing.noise * 1e3:g} mm noise, {sensing.latency * 1e3:g} ms latency, dropout "
+            f"{sensing.dropout:g}; predicted by {sensing.predictor}, q = {sensing.process_noise:g} m²/s³, margin "
+            f"min({sensing.margin_cap * 1e2:g} cm, {sensing.confidence:g} σ)")
+
+
 def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
     """Simulate ``spec`` on ``scene``: the result line (the spec's fields, the metrics, the wall and CPU time
     of the worker [s]; on a shared host the CPU time is the fairer cost; and its plans' CPU times, :func:`plan_costs`).
@@ -204,5 +211,6 @@ def run(spec: RunSpec, scene: BenchScene) -> dict[str, Any]:
         return {**dataclasses.asdict(spec), "scenario": scene.document["name"], **metrics}
     start, cpu = time.perf_counter(), time.process_time()
     scenario, result, fields = simulate_spec(spec, scene)
-    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **fields,
+    sensed = {} if scenario.sensing is None else {"sensing_settings": sensing_summary(scenario.sensing)}
+    return {**dataclasses.asdict(spec), "scenario": scenario.name, **run_metrics(result), **fields, **sensed,
             "wall_time": time.perf_counter() - start, "cpu_time": time.process_time() - cpu}

@@ -7,9 +7,13 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
 
 * at each camera frame the loop posts its state ``(q, t)``; the worker, when idle, takes the latest one, runs the
   parts as inline planning would at that state (:class:`PlanningSide`) and answers with a :class:`PlanningResult`:
-  the imaginary arms' targets (``argmax`` and ``peaks`` policies) or the plan being followed (the ``route`` policy,
-  ``reach`` with its best candidates and goal, ``horizon``, ``oracle``), the state time ``t0`` it was computed from,
-  and its compute time;
+  the imaginary arms' targets (``argmax`` and ``peaks`` policies) or the plan being followed (``horizon``,
+  ``oracle``), the state time ``t0`` it was computed from, and its compute time;
+* a part with both searches and a planner toward their peaks (the ``route`` policy, ``reach``) runs in two workers,
+  so that a plan (hundreds of ms on a spatial arm) stops no generation: the searches' worker (:class:`Searches`)
+  answers every state with one generation, the best candidates and the positive peaks; the loop relays the latest
+  peaks with each state it posts to the plans' worker (:class:`Plans`, :class:`PlanNews`), which answers with a
+  plan when one is due (and ``reach``'s goal). The plan's age decides the fallback, as with one worker;
 * a plan delivered at ``t1`` is followed from where the arm is at ``t1``
   (:meth:`WindowPlanner.follow <previewctl.control.planner.WindowPlanner.follow>`): read at the present time,
   moved to start at the arm, and faded back into itself over one replan period;
@@ -21,8 +25,9 @@ With ``make_controller(..., planning="background")`` the slow parts of a control
   dampers, computed at every cycle from the present distances, keep the links clear;
 * a result is valid while its age ``t − t0`` is at most ``arms_valid_frames`` frames (targets) or
   ``plan_valid_periods`` replan periods (plans; a plan over the whole future, ``oracle``'s, stays valid). With no
-  valid result, or a worker that crashed, failed or stopped answering, the cycle runs the ``qp`` law (``v = 0``; the
-  QP execution still guards) and ``last_info`` says so (``plan_age``, ``fallback``, ``worker_error``).
+  valid result, or a worker (either of two) that crashed, failed or stopped answering, the cycle runs the ``qp`` law
+  (``v = 0``; the QP execution still guards) and ``last_info`` says so (``plan_age``, ``fallback``,
+  ``worker_error``). The searches' worker of two runs ``search_niceness`` lower than the plans' worker.
 
 With observed obstacles (:mod:`previewctl.sensing`) the worker predicts from the same observations as the loop: each
 state posted carries the observed obstacles (their tracks: a predictor's mean, covariance and time, a few hundred
@@ -38,7 +43,8 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from typing import Annotated
 
 import numpy as np
@@ -50,7 +56,7 @@ from previewctl.control.laws import Reach
 from previewctl.control.nullspace import AmsipGradient
 from previewctl.control.planner import PeakPlanner, WindowPlanner
 from previewctl.control.worker import Compute, PlanningWorker
-from previewctl.errors import ConfigurationError
+from previewctl.errors import ConfigurationError, PlanningWorkerError
 from previewctl.kinematics import kinematics, kinematics_reader
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -73,12 +79,20 @@ class BackgroundOptions(Checked):
         timeout: wall time [s] a posted state may stay unanswered before the worker counts as hung (its start, the
             import of the package and the rebuild of the parts, falls within the first).
         niceness: how much the worker lowers its OS priority below the loop's (``os.nice``, 0-19).
+        search_niceness: with the searches and the plans in two workers, how much further the searches' worker
+            lowers its priority below the plans' (0-19): when the cores are short, the plan the loop follows goes
+            before a generation (docs/speed.md, "Plans in a worker of their own").
+        plans_apart: run a part's searches and plans in two workers (``False``: one worker runs both, one process
+            fewer beside the loop, and no generation while it makes a plan; on two shared cores that kept the
+            real-time Panda runs' plans fresher: docs/speed.md, "Plans in a worker of their own").
     """
 
     arms_valid_frames: Positive = 3.0
     plan_valid_periods: Positive = 3.0
     timeout: Positive = 20.0
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
+    search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
+    plans_apart: bool = True
 
 
 @dataclass(frozen=True)
@@ -94,6 +108,9 @@ class PlanningResult:
         goal: ``reach``: the peak the plan heads for, ``(level, configuration, S)``, or ``None``.
         local: ``(t0, ∇_q S)``: the AMSIP gradient ``(nv,)`` [1/rad] at the state posted at ``t0`` [s] (laws
             ``with_gradient``), else ``None``.
+        peaks: the searches' positive peaks at the last frame, ``(t_i [s], nodes (K, nq), S (K,))`` per preview
+            time, when the searches and the plans run in two workers (:class:`Searches`), else ``None``.
+        frames: the generations the searches have run (with ``peaks``).
     """
 
     made: float
@@ -103,13 +120,17 @@ class PlanningResult:
     best: tuple[Array, Array] | None = None
     goal: tuple[int, Array, float] | None = None
     local: tuple[float, Array] | None = None
+    peaks: list[tuple[float, Array, Array]] | None = None
+    frames: int = 0
 
 
 class PlanningSide:
     """The worker's side: the inline parts of the controller, run at each state the loop posts.
 
     Every state posted starts a camera frame (the loop posts once per frame): the searches run one generation, and
-    the planner plans when due.
+    the planner plans when due. A policy or law that has both, searches and a planner toward their peaks
+    (``route`` points, ``reach``), runs them in two workers (:meth:`searches` in one, :meth:`plans` in the other), so
+    that a plan, which takes many frames, stops no generation; the others run in one (the call).
 
     Args:
         part: the imaginary-arm policy (``single``, ``multi``), the law (``reach``: its searches and its planner
@@ -128,43 +149,80 @@ class PlanningSide:
         self._sent: ReachMotion | None = None
 
     def __call__(self, q: Array, t: float) -> PlanningResult | None:
-        """The result for the state ``(q, t)``; ``None`` when it holds nothing new (the same plan as before)."""
+        """The result for the state ``(q, t)``; ``None`` when it holds nothing new (the same plan as before).
+
+        Raises:
+            ConfigurationError: a part with searches and a planner (:func:`split_parts`): :meth:`searches` and
+                :meth:`plans` run it.
+        """
         start = time.perf_counter()
-        kin = kinematics(self.robot, q[None], reader=self._reader)
-        state = ControlState(q, t, kin, self.path, self.frame, frame_due=True, data=self._data)
         part = self.part
-        if isinstance(part, Reach) and isinstance(part.route, PeakPlanner):
-            part.null_input(state)
-            motion = part.route.planner.motion
-            if motion is None:
-                return None
-            new = motion is not self._sent
-            self._sent = motion
-            return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion if new else None,
-                                  best=part.arms.best, goal=part.route.goal)
+        if split_parts(part) is not None:
+            raise ConfigurationError("searches and a planner toward their peaks run in two workers: searches() and "
+                                     "plans() answer for them")
+        state = self._state(q, t)
         if isinstance(part, WindowPlanner):
             if part.due(t):
                 part.plan(state)
             part.arrive(t)
             motion = part.motion
-        elif isinstance(part, RoutePoints):
-            part.targets(state)
-            motion = part.planner.planner.motion
         elif isinstance(part, Reach):
             raise ConfigurationError("reach plans in the background only with its planner toward the peaks")
         else:
             targets = part.targets(state)
             return PlanningResult(t, time.perf_counter() - start, targets=targets, local=self._local(q, t))
-        if motion is None or (motion is self._sent and self.local is None):
+        if motion is None or motion is self._sent:
             return None
-        new = motion is not self._sent  # else only a new gradient for the plan in use
         self._sent = motion
-        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion if new else None,
-                              local=self._local(q, t))
+        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion)
+
+    def searches(self, q: Array, t: float) -> PlanningResult:
+        """One generation of the searches at the state ``(q, t)``: their best candidates and peaks, and the gradient
+        (the searches' worker of a part with both, :func:`split_parts`)."""
+        start = time.perf_counter()
+        arms = self._split()[0]
+        arms.update(self._state(q, t))
+        return PlanningResult(t, time.perf_counter() - start, best=arms.best, local=self._local(q, t),
+                              peaks=arms.levels(), frames=arms.frames)
+
+    def plans(self, q: Array, t: float, peaks: list[tuple[float, Array, Array]], frames: int) -> PlanningResult | None:
+        """The planner toward ``peaks`` (the searches' latest, after ``frames`` generations) at the state ``(q, t)``:
+        a new plan when one is due, else ``None`` (the plans' worker of a part with both, :func:`split_parts`)."""
+        start = time.perf_counter()
+        _, route, settle = self._split()
+        route.peaks = peaks
+        route.update(self._state(q, t), settled=frames >= settle)
+        motion = route.planner.motion
+        if motion is None or motion is self._sent:
+            return None
+        self._sent = motion
+        return PlanningResult(float(motion.times[0]), time.perf_counter() - start, motion=motion, goal=route.goal)
+
+    def _split(self) -> tuple[ImaginaryArms, PeakPlanner, int]:
+        parts = split_parts(self.part)
+        if parts is None:
+            raise ConfigurationError(f"{type(self.part).__name__} has no searches and planner to run apart: the call "
+                                     "answers for it")
+        return parts
+
+    def _state(self, q: Array, t: float) -> ControlState:
+        """The state ``(q, t)`` at a camera frame."""
+        kin = kinematics(self.robot, q[None], reader=self._reader)
+        return ControlState(q, t, kin, self.path, self.frame, frame_due=True, data=self._data)
 
     def _local(self, q: Array, t: float) -> tuple[float, Array] | None:
         """``(t, ∇_q S(q, t))`` of the law's gradient term, or ``None`` without one."""
         return None if self.local is None else (t, self.local.gradient(q, t))
+
+
+def split_parts(part: object) -> tuple[ImaginaryArms, PeakPlanner, int] | None:
+    """``(imaginary arms, planner toward their peaks, settle frames)`` of a part that has both (``route`` points, a
+    ``reach`` law with its planner toward the peaks), else ``None``."""
+    if isinstance(part, RoutePoints):
+        return part.arms, part.planner, part.settle_frames
+    if isinstance(part, Reach) and isinstance(part.route, PeakPlanner):
+        return part.arms, part.route, part.params.settle_frames
+    return None
 
 
 class ObservedSide:
@@ -199,9 +257,102 @@ class ObservedSide:
         return self.side(q, t)
 
 
-def answer(side: PlanningSide, q: Array, t: float) -> PlanningResult | None:
+def answer(side: PlanningSide | Searches | Plans, q: Array, t: float) -> PlanningResult | None:
     """The worker's default computation: ``side(q, t)``."""
     return side(q, t)
+
+
+def _inner(side: PlanningSide | ObservedSide) -> PlanningSide:
+    return side.side if isinstance(side, ObservedSide) else side
+
+
+class Searches:
+    """The searches' worker's side of a part with searches and a planner (:func:`split_parts`): one generation per
+    state (:meth:`PlanningSide.searches`).
+
+    Args:
+        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
+    """
+
+    def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
+        self.side = build()
+
+    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+        """Take the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
+        if isinstance(self.side, ObservedSide):
+            self.side.sync(observed)
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """One generation at the state ``(q, t)``."""
+        return _inner(self.side).searches(q, t)
+
+
+class Together:
+    """The one worker's side of a part with searches and a planner (:func:`split_parts`) when its plans do not run
+    apart (``plans_apart = False``): at each state one generation, then the planner toward its peaks.
+
+    Args:
+        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
+    """
+
+    def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
+        self.side = build()
+        self._plan: PlanningResult | None = None  # the last plan made
+
+    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+        """Take the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
+        if isinstance(self.side, ObservedSide):
+            self.side.sync(observed)
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """The searches' answer at the state ``(q, t)``, dated by the plan in use (with it if new); ``None`` before
+        the first plan."""
+        side = _inner(self.side)
+        searched = side.searches(q, t)
+        plan = side.plans(q, t, searched.peaks or [], searched.frames)
+        self._plan = plan or self._plan
+        if self._plan is None:
+            return None
+        return replace(searched, made=self._plan.made, compute=searched.compute + (plan.compute if plan else 0.0),
+                       motion=None if plan is None else plan.motion, goal=self._plan.goal, peaks=None)
+
+
+@dataclass(frozen=True)
+class PlanNews:
+    """What the loop hands the plans' worker with each state: the searches' latest peaks and the observed obstacles.
+
+    Attributes:
+        peaks: the searches' positive peaks, ``(t_i [s], nodes (K, nq), S (K,))`` per preview time (none yet: empty).
+        frames: the generations the searches had run then.
+        observed: the loop's observed obstacles, or ``None`` (no observed world).
+    """
+
+    peaks: list[tuple[float, Array, Array]]
+    frames: int
+    observed: tuple[Obstacle, ...] | None
+
+
+class Plans:
+    """The plans' worker's side of a part with searches and a planner (:func:`split_parts`): the planner toward the
+    searches' latest peaks, which the loop relays (:meth:`PlanningSide.plans`).
+
+    Args:
+        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
+    """
+
+    def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
+        self.side = build()
+        self.news = PlanNews([], 0, None)
+
+    def sync(self, news: PlanNews) -> None:
+        """Take the searches' latest peaks, and the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
+        self.news = news
+        if isinstance(self.side, ObservedSide) and news.observed is not None:
+            self.side.sync(news.observed)
+
+    def __call__(self, q: Array, t: float) -> PlanningResult | None:
+        """The planner's new plan at the state ``(q, t)``, or ``None``."""
+        return _inner(self.side).plans(q, t, self.news.peaks, self.news.frames)
 
 
 class Follower(WindowPlanner):
@@ -247,11 +398,15 @@ class BackgroundPlanning:
     def __init__(self, options: BackgroundOptions, frame: float) -> None:
         self.options, self.frame = options, frame
         self.result: PlanningResult | None = None
+        self.searched: PlanningResult | None = None  # the searches' latest answer, when the plans are apart
         self.follower: Follower | None = None
         self.worker: PlanningWorker | None = None
+        self.plans: PlanningWorker | None = None  # the plans' worker of a part with searches and a planner
+        self._split = False  # whether the part has both (arms(), reach()): start() starts the plans' worker
         self._valid = options.arms_valid_frames * frame  # [s]; for plans, set by _follower_of()
-        self._posting = False
-        self._stale = False  # the answer to the state in flight was computed on an old set of obstacles
+        self._posting = self._posting_plans = False
+        # the answer to the state in flight was computed on an old set of obstacles (searches', plans' worker)
+        self._stale = self._stale_plans = False
         self._arms: RemoteArms | None = None  # reach's stand-ins (reach())
         self._peaks: RemotePeaks | None = None
 
@@ -259,11 +414,13 @@ class BackgroundPlanning:
         """The loop's stand-in for ``policy``, whose searches (and planner) run in the worker."""
         if isinstance(policy, RoutePoints):
             self.follower = self._follower_of(policy.planner.planner)
+            self._split = True
         return BackgroundArms(policy.name, policy.arms, self)
 
     def reach(self, arms: ImaginaryArms, route: PeakPlanner) -> tuple[RemoteArms, RemotePeaks]:
         """The loop's stand-ins for ``reach``'s imaginary arms and planner toward their peaks."""
         self.follower = self._follower_of(route.planner)
+        self._split = True
         self._arms = RemoteArms(arms.robot, arms.searches, arms.preview_time)
         self._peaks = RemotePeaks(route.robot, self.follower, hysteresis=route.hysteresis,
                                   track_radius=route.track_radius)
@@ -281,7 +438,8 @@ class BackgroundPlanning:
     def local_gradient(self, t: float) -> Array | None:
         """The worker's latest ``∇_q S`` [1/rad] if it is at most ``arms_valid_frames`` frames old at ``t`` [s], else
         ``None``."""
-        local = None if self.result is None else self.result.local
+        source = self.result if self.searched is None else self.searched
+        local = None if source is None else source.local
         if local is None or t - local[0] > self.options.arms_valid_frames * self.frame + 1e-9:
             return None
         return local[1]
@@ -295,17 +453,29 @@ class BackgroundPlanning:
     def rescene(self) -> None:
         """The set of observed obstacles changed: no result is in use, the answer to a state sent before is dropped,
         and the next cycle posts its state (with the new set) at once."""
-        self.result, self._posting = None, True
+        self.result = self.searched = None
+        self._posting = self._posting_plans = True
         self._stale = self.worker is not None and self.worker.busy
+        self._stale_plans = self.plans is not None and self.plans.busy
 
-    def start(self, build: Callable[[], PlanningSide], compute: Compute = answer) -> None:
-        """Start the worker, which runs ``compute(build(), q, t)`` for each state posted."""
-        self.worker = PlanningWorker(build, compute, timeout=self.options.timeout, niceness=self.options.niceness)
+    def start(self, build: Callable[[], PlanningSide | ObservedSide], compute: Compute = answer) -> None:
+        """Start the worker, which runs ``compute(build(), q, t)`` for each state posted; for a part with searches
+        and a planner, ``compute(Searches(build), q, t)``, and a second worker that makes the plans
+        (:class:`Plans`)."""
+        options = self.options
+        side: Callable[[], object] = build
+        niceness = options.niceness
+        if self._split and options.plans_apart:
+            self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout, niceness=niceness)
+            side, niceness = partial(Searches, build), min(19, niceness + options.search_niceness)
+        elif self._split:
+            side = partial(Together, build)
+        self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=niceness)
 
     def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
         """Post the state at a new frame (with the observed obstacles, if any), take the worker's answer if one came,
         and say whether it is valid."""
-        worker = self.worker
+        worker, plans = self.worker, self.plans
         if worker is None:
             raise ConfigurationError("the planning worker was not started: start() starts it")
         self._posting = self._posting or state.frame_due
@@ -314,21 +484,52 @@ class BackgroundPlanning:
         for result in worker.exchange():
             if self._stale:
                 self._stale = False
+            elif result is not None and plans is not None:
+                self._searched(result)
             elif result is not None:
                 self._take(result, state)
-        if self._posting and not worker.waiting:
-            self._posting = False
+        self._posting = self._posting and worker.waiting
+        error = worker.error
+        if plans is not None:
+            error = error or self._exchange_plans(plans, state, observed)
         age = None if self.result is None else state.t - self.result.made
-        fallback = worker.error is not None or age is None or age > self._valid + 1e-9
-        return PlanningStatus(age, fallback, worker.error)
+        unsearched = self._arms is not None and self.searched is None  # reach's arms have no candidates yet
+        fallback = error is not None or age is None or age > self._valid + 1e-9 or unsearched
+        return PlanningStatus(age, fallback, error)
+
+    def _exchange_plans(self, plans: PlanningWorker, state: ControlState,
+                        observed: tuple[Obstacle, ...] | None) -> PlanningWorkerError | None:
+        """Post the state at a new frame to the plans' worker, with the searches' latest peaks, and take its new plan
+        if one came; its error, if any."""
+        self._posting_plans = self._posting_plans or state.frame_due
+        if self._posting_plans:
+            searched = self.searched
+            news = (PlanNews([], 0, observed) if searched is None or searched.peaks is None
+                    else PlanNews(searched.peaks, searched.frames, observed))
+            plans.post(state.q.copy(), state.t, news)
+        for result in plans.exchange():
+            if self._stale_plans:
+                self._stale_plans = False
+            elif result is not None:
+                self._take(result, state)
+        self._posting_plans = self._posting_plans and plans.waiting
+        return plans.error
+
+    def _searched(self, result: PlanningResult) -> None:
+        """Hold the searches' answer (the plans apart): their peaks go to the plans' worker, their best candidates to
+        ``reach``'s stand-ins."""
+        self.searched = result
+        if self._arms is not None and result.best is not None:
+            self._arms.best_from(result.best)
 
     def _take(self, result: PlanningResult, state: ControlState) -> None:
         """Hold ``result``; a plan is followed from now on, joined to the arm's configuration."""
         if result.motion is not None and self.follower is not None:
             self.follower.follow(result.motion, state.t, state.q)
-        if self._arms is not None and self._peaks is not None and result.best is not None:
-            self._arms.best_from(result.best)
+        if self._peaks is not None and result.motion is not None:
             self._peaks.goal = result.goal
+        if result.best is not None:  # the searches' answer too (plans not apart: Together)
+            self._searched(result)
         self.result = result
 
     def targets(self, t: float, arms: ImaginaryArms) -> Targets:
@@ -344,9 +545,10 @@ class BackgroundPlanning:
         return plan_points(self.follower, t, arms.preview_time, len(arms))
 
     def close(self) -> None:
-        """Stop the worker; no child process is left."""
-        if self.worker is not None:
-            self.worker.close()
+        """Stop the workers; no child process is left."""
+        for worker in (self.worker, self.plans):
+            if worker is not None:
+                worker.close()
 
 
 class BackgroundArms:

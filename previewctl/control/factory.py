@@ -184,8 +184,9 @@ def make_controller(
             to end the worker).
         background: validity of the worker's results and worker settings (default
             :class:`~previewctl.control.background.BackgroundOptions`\\ ``()``).
-        worker_compute: ``compute(side, q, t)`` the worker runs per state instead of
-            :func:`~previewctl.control.background.answer` (tests: a stand-in that blocks); picklable.
+        worker_compute: ``compute(side, q, t)`` the worker (the searches' worker, when a route's plans run in a
+            worker of their own) runs per state instead of :func:`~previewctl.control.background.answer` (tests: a
+            stand-in that blocks); picklable.
         sensing: observe obstacles instead of reading their motion (:class:`~previewctl.sensing.options.Sensing`;
             default: the scenario's ``[sensing]`` table, else none): the obstacles it names leave the scene until
             first observed (``ctrl.observe``), and a change of the set rebuilds the law and the execution

@@ -173,10 +173,7 @@ class WindowPlanner:
         if self.timing.window is not None:
             horizon = min(horizon, self.timing.window)
         if horizon <= 0:  # nothing left to track: hold q (no DP result, so no goal of an earlier plan either)
-            hold = ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
-                               branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64),
-                               min_S=float("nan"), total_S=0.0)
-            return hold, None, None
+            return _hold(t, q), None, None
         if self.robot.planar is None:  # a spatial arm: the sampled forward search
             found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t,
                                       goals=goals)
@@ -189,8 +186,9 @@ class WindowPlanner:
         slowest = float(np.min(self.robot.velocity_limits[: max(self.robot.nq - 2, 0)], initial=np.inf))
         if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
-            if fit < options.steps:
-                options = replace(options, steps=max(1, fit))
+            if fit < 1:  # too little path left for a joint to move one grid cell: no step to plan
+                return _hold(t, q), None, None
+            options = replace(options, steps=min(options.steps, fit))
         result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
         return result.motion, result, result.goal
 
@@ -276,6 +274,13 @@ class WindowPlanner:
         self.arrive(t)
         q_ref, rate, S_ref = self.point(t + self.timing.lookahead)
         return rate + gain * pin.difference(self.robot.model, q, q_ref), q_ref, S_ref
+
+
+def _hold(t: float, q: Array) -> ReachMotion:
+    """The plan that holds ``q`` from ``t`` [s]: one sample, no step."""
+    return ReachMotion(times=np.array([t]), q=np.array([q], dtype=float), S=np.array([np.nan]),
+                       branch=np.zeros(1, dtype=np.int64), cells=np.full(1, -1, dtype=np.int64), min_S=float("nan"),
+                       total_S=0.0)
 
 
 class PeakPlanner:

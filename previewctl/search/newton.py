@@ -162,13 +162,14 @@ class NewtonRedundancy:
         return self._project(G, [self._goal(target)], np.zeros(G.shape[0], dtype=int), q_seed)
 
     def solve_many(
-        self, genes: Array, branch: NDArray[np.int_], targets: Sequence[object], groups: object
+        self, genes: Array, branch: NDArray[np.int_], targets: Sequence[object], groups: object,
+        q_seed: Array | None = None,
     ) -> tuple[Array, NDArray[np.bool_]]:
         """:meth:`solve` for rows aimed at different targets: row ``b`` goes to ``targets[groups[b]]``.
 
         Row for row the same result as :meth:`solve` on each group (rows never interact), in one
         iteration whose per-step overhead is paid once: the preview controller projects the
-        populations of all its imaginary arms together.
+        populations of all its imaginary arms together, the roadmap the sub-steps of a layer.
 
         Raises:
             ConfigurationError: ``groups`` not one index in ``[0, len(targets))`` per row.
@@ -181,7 +182,7 @@ class NewtonRedundancy:
                 f"groups must hold one target index in [0, {len(targets)}) per gene row ({G.shape[0]}), "
                 f"got {show(groups)}"
             )
-        return self._project(G, [self._goal(target) for target in targets], index, None)
+        return self._project(G, [self._goal(target) for target in targets], index, q_seed)
 
     def _checked_genes(self, genes: Array, branch: NDArray[np.int_]) -> Array:
         G, _ = check_genes(genes, branch, self.robot.nv, self.branches)

@@ -44,7 +44,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
+import numba
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import Field
 
 from previewctl.errors import ParameterError
@@ -232,13 +234,11 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
     samples = np.empty((len(parent), opts.substeps + 1, robot.nq))
     evaluations = 0
     sample_S = np.full((len(parent), opts.substeps + 1), -np.inf)
+    guesses, projected, projectable = _projections(robot, red, path, start, end, t0, h, opts.substeps)
     for s in range(1, opts.substeps + 2):
-        fraction = s / (opts.substeps + 1)
-        t = t0 + fraction * h
+        t = t0 + s / (opts.substeps + 1) * h
         rows = np.flatnonzero(alive)
-        guess = start[rows] + fraction * (end[rows] - start[rows])
-        guess_q = robot.configurations_from_angles(guess)
-        Q, reachable = red.solve(guess, np.zeros(len(rows), dtype=int), path.position(t), q_seed=guess_q)
+        guess, Q, reachable = guesses[s - 1, rows], projected[s - 1, rows], projectable[s - 1, rows]
         angles = _next_to(robot, robot.angles_of(Q), guess)
         within = np.all(np.abs(angles - previous[rows]) <= reach / (opts.substeps + 1) + 1e-9, axis=1)
         check = rows[reachable & within]
@@ -261,6 +261,26 @@ def _successors(robot: Robot, red: NewtonRedundancy, evaluator: Evaluator, path:
     return _Layer(value[kept], parent[rows], samples[rows], sample_S[rows], previous[rows]), evaluations
 
 
+def _projections(robot: Robot, red: NewtonRedundancy, path: HandPath, start: Array, end: Array, t0: float, h: float,
+                 substeps: int) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """Every move's sub-step samples, each sub-step's linear interpolation from ``start`` to ``end`` ``(R, nv)``
+    projected onto the hand target of its time by the Newton map (started from it), in one batch: the guesses
+    ``(substeps + 1, R, nv)``, the configurations ``(substeps + 1, R, nq)`` and whether each is reachable.
+
+    A row's projection does not depend on the others (:meth:`~previewctl.search.newton.NewtonRedundancy.solve_many`),
+    so this equals one projection per sub-step of the moves still alive, and pays Newton's overhead per call once a
+    step; the moves that die at an earlier sub-step are projected in vain.
+    """
+    count = substeps + 1
+    guesses = np.stack([start + s / count * (end - start) for s in range(1, count + 1)])
+    flat = guesses.reshape(-1, start.shape[1])
+    targets = [path.position(t0 + s / count * h) for s in range(1, count + 1)]
+    groups = np.repeat(np.arange(count), len(start))
+    Q, reachable = red.solve_many(flat, np.zeros(len(flat), dtype=int), targets, groups,
+                                  q_seed=robot.configurations_from_angles(flat))
+    return guesses, Q.reshape(count, len(start), -1), reachable.reshape(count, len(start))
+
+
 def _next_to(robot: Robot, angles: Array, reference: Array) -> Array:
     """Joint coordinates ``angles`` ``(B, nv)`` with each continuous joint's angle shifted by whole turns to within
     π of ``reference`` (the other coordinates unchanged): the motion's angles stay unwrapped."""
@@ -274,20 +294,50 @@ def _spread_out(Q: Array, value: Array, opts: RoadmapOptions) -> IntArray:
     """Indices of the kept nodes: half the ``beam`` the best by ``value`` (none within ``spread`` of a better kept
     one), the other half the farthest from every kept node (largest joint difference), so the beam covers the
     reachable part of the manifold and not only its best region."""
-    kept: list[int] = []
-    for i in np.argsort(-value, kind="stable"):
-        if not kept or np.min(np.max(np.abs(Q[kept] - Q[i]), axis=1)) > opts.spread:
-            kept.append(int(i))
-            if 2 * len(kept) >= opts.beam:
+    kept = np.empty(opts.beam, dtype=np.int64)
+    count = _spread(np.ascontiguousarray(Q, dtype=float), np.argsort(-value, kind="stable"), opts.spread, kept)
+    return kept[:count]
+
+
+@numba.njit(cache=True, nogil=True)
+def _spread(Q: Array, order: IntArray, spread: float, kept: IntArray) -> int:  # pragma: no cover - compiled
+    """:func:`_spread_out`'s choice in one compiled pass: fills ``kept`` (its length is the beam) and returns how many
+    nodes it kept."""
+    beam, rows, n = len(kept), Q.shape[0], Q.shape[1]
+    count = 0
+    for i in order:  # the best by value, none within spread of a kept one
+        apart = True
+        for c in range(count):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[kept[c], k] - Q[i, k]))
+            if gap <= spread:
+                apart = False
                 break
-    gap = np.min(np.max(np.abs(Q[:, None, :] - Q[kept][None, :, :]), axis=2), axis=1)
-    while len(kept) < opts.beam:
-        far = int(np.argmax(gap))
-        if gap[far] <= opts.spread:
+        if apart:
+            kept[count] = i
+            count += 1
+            if 2 * count >= beam:
+                break
+    nearest = np.full(rows, np.inf)  # each node's largest-joint distance to its nearest kept node
+    for r in range(rows):
+        for c in range(count):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[r, k] - Q[kept[c], k]))
+            nearest[r] = min(nearest[r], gap)
+    while count < beam:  # then the farthest from every kept node
+        far = int(np.argmax(nearest))
+        if nearest[far] <= spread:
             break
-        kept.append(far)
-        gap = np.minimum(gap, np.max(np.abs(Q - Q[far]), axis=1))
-    return np.array(kept, dtype=int)
+        kept[count] = far
+        count += 1
+        for r in range(rows):
+            gap = 0.0
+            for k in range(n):
+                gap = max(gap, abs(Q[r, k] - Q[far, k]))
+            nearest[r] = min(nearest[r], gap)
+    return count
 
 
 def _motion(layers: list[_Layer], times: Array, substeps: int, end: tuple[int, int] | None = None) -> ReachMotion:
