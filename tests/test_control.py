@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from previewctl.control.base import ControlLaw, ControlState
 from previewctl.control.factory import compose, make_controller
 from previewctl.control.laws import Gradient, MultiPreview, Reach, SinglePreview
-from previewctl.control.nullspace import AmsipGradient, wrapped_difference
+from previewctl.control.nullspace import AmsipGradient, LimitAvoidance, wrapped_difference
 from previewctl.control.params import (
     CONTROLLER_NAMES,
     PREVIEW_MODES,
@@ -25,7 +25,7 @@ from previewctl.control.params import (
 )
 from previewctl.control.planner import PeakPlanner
 from previewctl.control.sweeps import SweepRoutes
-from previewctl.control.tracking import damped_pseudo_inverse, reference
+from previewctl.control.tracking import damped_pseudo_inverse, null_space_budget, reference
 from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.load import load_robot
@@ -638,3 +638,30 @@ def test_pose_task_tracks_orientation() -> None:
     _, info = track(robot, state_for(robot, q, path), np.zeros(robot.nv), ControllerParams())
     assert info.reference.task_error.shape == (6,)
     np.testing.assert_allclose(info.reference.task_error[3:], tip.rotation @ np.array([0.0, 0.0, 0.1]), atol=1e-9)
+
+
+def test_null_space_budget_closed_forms() -> None:
+    """The largest α in [0, 1] with |q̇_task + α q̇_null| <= limit, per joint and overall (compiled loop)."""
+    inf = np.inf
+    # joint 0: |0.5 + α| <= 1 gives α <= 0.5; joint 1: |α| <= 1 gives 1; the budget is the smaller
+    assert null_space_budget(np.array([0.5, 0.0]), np.array([1.0, 1.0]), np.array([1.0, 1.0])) == 0.5
+    # a negative null direction: |-0.2 - 2α| <= 1 gives α <= 0.4
+    assert null_space_budget(np.array([-0.2]), np.array([-2.0]), np.array([1.0])) == pytest.approx(0.4, abs=1e-15)
+    assert null_space_budget(np.array([1.5, 0.0]), np.array([0.1, 0.1]), np.array([1.0, 1.0])) == 0.0  # task over
+    assert null_space_budget(np.array([0.1, 0.1]), np.array([0.2, -0.2]), np.array([1.0, 1.0])) == 1.0  # room
+    assert null_space_budget(np.array([0.0, 0.9]), np.array([50.0, 0.0]), np.array([inf, 1.0])) == 1.0  # no limit
+
+
+def test_limit_avoidance_pushes_inside_the_margin_only(panda: Robot) -> None:
+    """``K_l`` times the depth inside the margin, away from the limit; 0 outside the margins."""
+    params = ControllerParams(limit_gain=2.0, limit_margin=0.1)
+    lower, upper = panda.joints.lower, panda.joints.upper
+    margin = 0.1 * (upper - lower)
+    q = (lower + upper) / 2
+    np.testing.assert_array_equal(LimitAvoidance(panda, params)(q), np.zeros(panda.nv))
+    q[0] = lower[0] + margin[0] / 4  # a quarter into the lower margin: pushed up by 2 × 3/4 of it
+    q[3] = upper[3] - margin[3] / 2  # half into the upper margin: pushed down
+    v = LimitAvoidance(panda, params)(q)
+    assert v[0] == pytest.approx(2.0 * 0.75 * margin[0], rel=1e-12)
+    assert v[3] == pytest.approx(-2.0 * 0.5 * margin[3], rel=1e-12)
+    np.testing.assert_array_equal(np.delete(v, [0, 3]), 0.0)

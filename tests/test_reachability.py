@@ -32,6 +32,7 @@ from previewctl.search.reachability import PlanarOnlyError, ReachOptions, ReachR
 from previewctl.search.reachability.families import two_or_more
 from previewctl.search.reachability.goals import Goals
 from previewctl.search.reachability.grid import MAX_GRID_NODES, fast_enough, grid_model, targets
+from previewctl.search.reachability.result import ReachMotion
 from previewctl.search.redundancy import wrap_angle
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario
@@ -745,3 +746,17 @@ def test_two_or_more_bits_matches_a_popcount_on_every_bit_position() -> None:
     F = np.array(values, dtype=np.uint64)
     expected = [bin(v).count("1") >= 2 for v in values]
     assert two_or_more(F).tolist() == expected and sum(expected) > 200 and not any(two_or_more(F[1:65]))
+
+
+def test_motion_at_is_np_interp_bit_for_bit() -> None:
+    """``ReachMotion.at`` interpolates every joint at once with ``np.interp``'s arithmetic: the same bits, at the
+    samples, between them and outside (held)."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        times = np.unique(rng.uniform(0.0, 3.0, rng.integers(1, 9)))
+        q = rng.normal(size=(times.size, 7)) * 3.0
+        ints = np.zeros(times.size, dtype=np.int64)
+        motion = ReachMotion(times, q, np.zeros(times.size), ints, ints, 0.0, 0.0)
+        for t in [*rng.uniform(-1.0, 4.0, 10), *times]:
+            expected = np.array([np.interp(min(max(t, times[0]), times[-1]), times, column) for column in q.T])
+            np.testing.assert_array_equal(motion.at(t), expected)

@@ -42,8 +42,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from types import TracebackType
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -252,13 +253,13 @@ class Controller:
             null = NullInput(np.zeros(self.robot.nv)) if status.fallback else self.law.null_input(state)
         ref = self._tracking(state, null.v)
         executed = self.execution(state, ref)
-        self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip)
+        extra: dict[str, Any] = {}  # one ControlInfo: a dataclass replace() costs as much as the law
         if status is not None:
-            self._last_info = replace(self._last_info, plan_age=status.plan_age, fallback=status.fallback,
-                                      worker_error=status.worker_error)
+            extra.update(plan_age=status.plan_age, fallback=status.fallback, worker_error=status.worker_error)
         if changes is not None:
-            self._last_info = replace(self._last_info, obstacles_added=changes.added,
-                                      obstacles_dropped=changes.dropped, late_observations=changes.late)
+            extra.update(obstacles_added=changes.added, obstacles_dropped=changes.dropped,
+                         late_observations=changes.late)
+        self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip, **extra)
         self._last_frame, self._last_t = frame, now
         return executed.qdot
 

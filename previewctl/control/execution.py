@@ -62,6 +62,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pinocchio as pin
 import qpsolvers
@@ -72,6 +73,7 @@ from previewctl.control.saturation import saturate
 from previewctl.control.tracking import (
     STEP_ITERATIONS,
     damped_pseudo_inverse,
+    desired_position,
     effective_velocity_limits,
     step_correction,
     velocity_box,
@@ -172,6 +174,10 @@ class QPExecution:
         self_clearance = self.clearance.self_clearance
         self._self_support = (support_mask(robot.model, self_clearance.joint_a),
                               support_mask(robot.model, self_clearance.joint_b))
+        self._no_rows = np.zeros((0, robot.nv))  # read only: the rows of a cycle without a pair within reach
+        self._no_rows.flags.writeable = False
+        self._no_pairs = np.zeros(0, dtype=int)
+        self._no_pairs.flags.writeable = False
         self._velocities = np.zeros((len(scene.obstacles), 3))
         self._velocity_time = np.nan
         self._velocity_revisions = self.clearance.revisions()
@@ -188,21 +194,27 @@ class QPExecution:
             data, J = joint_data, joint_data.J
         self.clearance.set_time(t)
         near, w = self.clearance.witnesses(data, within=p.influence_distance)
-        # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
-        # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
-        G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
-        obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
-        obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
-        approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
+        if near.size:
+            # data.J holds each joint's motion in the world frame, (v at the world origin; ω); a point p fixed on
+            # a link moves at v + ω × p under the joints that support the link, so n·ṗ = n·v + (p × n)·ω
+            G = (w.normal @ J[:3] + _cross(w.robot_point, w.normal) @ J[3:]) * self._pair_support[near]
+            obstacle_velocity = self._obstacle_velocities(t)[self.clearance.pair_obstacles[near]]
+            obstacle_speed = (w.normal * obstacle_velocity).sum(axis=1)
+            approach = p.damper_gain * (w.distance - p.safety_distance) / (p.influence_distance - p.safety_distance)
+            h = approach + obstacle_speed
+        else:  # no pair within reach: no row (most cycles)
+            G, h = self._no_rows, w.distance
         if not len(self.robot.self_pairs):
-            return Dampers(G, approach + obstacle_speed, w.distance, near, np.zeros(0, dtype=int))
+            return Dampers(G, h, w.distance, near, self._no_pairs)
         s = self.clearance.self_witnesses(data, within=p.self_influence_distance)
+        if not s.pairs.size:
+            return Dampers(G, h, w.distance, near, s.pairs)
         support_a, support_b = self._self_support[0][s.pairs], self._self_support[1][s.pairs]
         G_self = ((s.normal @ J[:3] + _cross(s.point_a, s.normal) @ J[3:]) * support_a
                   - (s.normal @ J[:3] + _cross(s.point_b, s.normal) @ J[3:]) * support_b)
         h_self = p.damper_gain * (s.distance - p.self_safety_distance) / (p.self_influence_distance
                                                                           - p.self_safety_distance)
-        return Dampers(np.vstack([G, G_self]), np.concatenate([approach + obstacle_speed, h_self]),
+        return Dampers(np.vstack([G, G_self]), np.concatenate([h, h_self]),
                        np.concatenate([w.distance, s.distance]), near, s.pairs)
 
     def _obstacle_velocities(self, t: float) -> Array:
@@ -224,10 +236,9 @@ class QPExecution:
         Towards a limit at distance ``a ≥ 0`` the bound is ``min(q̇max, q̇max · a / margin, a / dt)``, i.e.
         ``min(q̇max, a · min(q̇max / margin, 1 / dt))``; a joint without limits (``a = ∞``) keeps ``q̇max``.
         """
-        position = np.asarray(q, dtype=float)[self._index]
-        rate = np.minimum(self._brake_rate, 1.0 / dt)
-        upper = np.minimum(self._speed, np.maximum(self._upper - position, 0.0) * rate)
-        lower = -np.minimum(self._speed, np.maximum(position - self._lower, 0.0) * rate)
+        lower, upper = np.empty(self._index.size), np.empty(self._index.size)
+        _braking_bounds(np.asarray(q, dtype=float), self._index, self._lower, self._upper, self._speed,
+                        self._brake_rate, 1.0 / dt, lower, upper)
         return lower, upper
 
     def __call__(self, state: ControlState, reference: Reference) -> Executed:
@@ -237,7 +248,7 @@ class QPExecution:
         lower, upper = self.bounds(q, state.dt)
         rows = self.dampers(q, t, state.joint_data)
         slack = 0.0
-        if (requested >= lower).all() and (requested <= upper).all() and (rows.G @ requested <= rows.h).all():
+        if _inside(requested, lower, upper) and (not rows.h.size or (rows.G @ requested <= rows.h).all()):
             qdot = requested.copy()  # the cost's minimum (0, at q̇_ref) is feasible: it is the QP's solution
         else:
             J, W = reference.J, self.params.task_weight
@@ -245,11 +256,13 @@ class QPExecution:
             c = -P @ requested
             qdot, slack = self._solve(P, c, rows, lower, upper)
             # the reference corrected eq. 19's step for the q̇ it asked for; the QP runs another: correct for that
-            for _ in range(STEP_ITERATIONS if self.params.step_correction else 0):
-                c = c - W * (J.T @ step_correction(self.robot, state, qdot, reference.task_error, self.params))
+            iterations = STEP_ITERATIONS if self.params.step_correction else 0
+            r_next = desired_position(state.path, t + state.dt) if iterations else None
+            for _ in range(iterations):
+                c = c - W * (J.T @ step_correction(self.robot, state, qdot, reference.task_error, self.params, r_next))
                 qdot, slack = self._solve(P, c, rows, lower, upper)
-        active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL))
-        clamped = bool(np.any((qdot >= upper - _ACTIVE_TOL) | (qdot <= lower + _ACTIVE_TOL)))
+        active = int(np.count_nonzero(rows.G @ qdot >= rows.h - _ACTIVE_TOL)) if rows.h.size else 0
+        clamped = _clamped(qdot, lower, upper, _ACTIVE_TOL)
         return Executed(qdot, requested, 1.0, 1.0, clamped, state.dt, self.name, dampers=int(rows.h.size),
                         active_dampers=active, slack=slack)
 
@@ -282,3 +295,38 @@ class QPExecution:
         slack = x[nv:]
         solved = qpsolvers.solve_qp(P, c, rows.G, rows.h + slack + _ACTIVE_TOL, lb=lower, ub=upper, solver=SOLVER)
         return (x[:nv] if solved is None else solved), float(slack.max(initial=0.0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _braking_bounds(q: Array, index: IntArray, low: Array, high: Array, speed: Array, brake_rate: Array,
+                    inverse_dt: float, lower: Array, upper: Array) -> None:  # pragma: no cover - compiled
+    """:meth:`QPExecution.bounds` into ``lower`` and ``upper``, one compiled loop (``np.minimum``/``np.maximum`` as
+    numpy takes them, signed zeros included)."""
+    for j in range(index.size):
+        position = q[index[j]]
+        rate = brake_rate[j] if brake_rate[j] <= inverse_dt else inverse_dt
+        room = high[j] - position
+        room = (room if room >= 0.0 else 0.0) * rate
+        upper[j] = speed[j] if speed[j] <= room else room
+        room = position - low[j]
+        room = (room if room >= 0.0 else 0.0) * rate
+        lower[j] = -(speed[j] if speed[j] <= room else room)
+
+
+@numba.njit(cache=True, nogil=True)
+def _inside(qdot: Array, lower: Array, upper: Array) -> bool:  # pragma: no cover - compiled
+    """Whether ``lower <= q̇ <= upper`` for every joint (one compiled loop instead of five array operations)."""
+    for j in range(qdot.size):  # noqa: SIM110 - numba compiles the loop, not a generator
+        if not lower[j] <= qdot[j] <= upper[j]:
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _clamped(qdot: Array, lower: Array, upper: Array, tolerance: float) -> bool:  # pragma: no cover - compiled
+    """Whether a joint's ``q̇`` is within ``tolerance`` of its bound (one compiled loop instead of five array
+    operations)."""
+    for j in range(qdot.size):  # noqa: SIM110 - numba compiles the loop, not a generator
+        if qdot[j] >= upper[j] - tolerance or qdot[j] <= lower[j] + tolerance:
+            return True
+    return False

@@ -157,6 +157,8 @@ class Clearance:
         self._results = list(self.data.distanceResults)  # element references: no lookup per read
         self._solid_of = {pair: (solid, g, o) for pair, solid, g, o in self._solid_pairs}
         self._time = 0.0
+        self._no_points = np.zeros((0, 3))  # read only: the witnesses of no pair
+        self._no_points.flags.writeable = False
         self.self_clearance = SelfClearance(robot)
 
     def revisions(self) -> tuple[int, ...]:
@@ -255,6 +257,8 @@ class Clearance:
         and their distances, nearest points and normals."""
         distance = np.array(self.pair_distances(data))
         near = np.flatnonzero(distance < within)
+        if not near.size:  # most cycles
+            return near, Witnesses(distance[near], self._no_points, self._no_points, self._no_points)
         results = [self._results[k] for k in near]
         points = np.array([(r.getNearestPoint1(), r.getNearestPoint2(), r.normal) for r in results]).reshape(-1, 3, 3)
         obstacle_point = points[:, 1]

@@ -124,6 +124,8 @@ class SelfClearance:
         self._batch = self._geometry_data(signed=False)
         self._own = robot.model.createData()  # for configurations given as q
         self._reader: tuple[pin.Data, list[pin.SE3]] | None = None
+        self._none, self._no_points = np.zeros(0), np.zeros((0, 3))  # read only: the witnesses of no pair
+        self._none.flags.writeable = self._no_points.flags.writeable = False
 
     def _geometry_data(self, signed: bool) -> pin.GeometryData:
         """Workspace of :attr:`geometry`: no warm start (results must not depend on call order); ``signed=False``
@@ -154,6 +156,9 @@ class SelfClearance:
         are not computed."""
         if np.isfinite(within):
             _, _, candidates = self.candidates(np.array(self.joint_placements(data))[None], within)
+            if not candidates.size:  # most cycles
+                return SelfWitnesses(candidates, self._none, self._no_points, self._no_points, self._no_points,
+                                     candidates, candidates)
             pin.updateGeometryPlacements(self.robot.model, data, self.geometry, self.data)
             for k in candidates.tolist():
                 pin.computeDistance(self.geometry, self.data, k)
