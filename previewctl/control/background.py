@@ -72,6 +72,13 @@ APART_CORES = 4
 simulator's or the robot's own processes)."""
 
 
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity, which a container's limit sets; else the machine's)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 @dataclass(frozen=True)
 class BackgroundOptions(Checked):
     """How long the worker's results stay valid, and how the worker runs.
@@ -88,9 +95,9 @@ class BackgroundOptions(Checked):
             lowers its priority below the plans' (0-19): when the cores are short, the plan the loop follows goes
             before a generation (docs/speed.md, "Plans in a worker of their own").
         plans_apart: run a part's searches and plans in two workers (``False``: one worker runs both, one process
-            fewer beside the loop, and no generation while it makes a plan). Default: two workers on a machine of
-            at least :data:`APART_CORES` cores; on two shared cores one worker kept the real-time Panda runs' plans
-            fresher (docs/speed.md, "Plans in a worker of their own").
+            fewer beside the loop, and no generation while it makes a plan). Default: two workers when the process
+            may run on at least :data:`APART_CORES` cores (:func:`available_cores`); on two shared cores one
+            worker kept the real-time Panda runs' plans fresher (docs/speed.md, "Plans in a worker of their own").
     """
 
     arms_valid_frames: Positive = 3.0
@@ -98,7 +105,7 @@ class BackgroundOptions(Checked):
     timeout: Positive = 20.0
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
     search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
-    plans_apart: bool = field(default_factory=lambda: (os.cpu_count() or 1) >= APART_CORES)
+    plans_apart: bool = field(default_factory=lambda: available_cores() >= APART_CORES)
 
 
 @dataclass(frozen=True)
