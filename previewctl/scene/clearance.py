@@ -145,7 +145,8 @@ class Clearance:
         self._pair_margin = np.zeros(len(pair_links))  # [m] each pair's obstacle inflation at the scene's time
         self._revisions = self.revisions()
         self._moving = [k for k, o in enumerate(scene.obstacles) if not isinstance(o.motion, Static)]
-        self._obstacle_centres = self._centres_at(0.0)  # (O, 3): the moving obstacles' rows are rewritten by set_time
+        self._obstacle_centres = np.array([self._centre(k, o.placement(0.0)) for k, o in enumerate(scene.obstacles)
+                                           ]).reshape(-1, 3)  # (O, 3): the moving obstacles' rows follow set_time
         self._margins_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
@@ -178,7 +179,7 @@ class Clearance:
         for k in self._moving:
             placement = self.scene.obstacles[k].placement(t)
             objects[self._obstacle_ids[k]].placement = placement
-            self._obstacle_centres[k] = placement.act(self._obstacle_covers[k][0])
+            self._obstacle_centres[k] = self._centre(k, placement)
         self._margins_at(t)
 
     def _margins_at(self, t: float) -> None:
@@ -187,10 +188,9 @@ class Clearance:
             margins = np.array([margin_at(o.motion, t) for o in self.scene.obstacles]).reshape(-1)
             self._pair_margin = margins[self.pair_obstacles]
 
-    def _centres_at(self, t: float) -> Array:
-        """``(O, 3)`` the obstacles' cover centres [m] in the world at time ``t`` [s]."""
-        return np.array([o.placement(t).act(centre) for o, (centre, _) in
-                         zip(self.scene.obstacles, self._obstacle_covers, strict=True)]).reshape(-1, 3)
+    def _centre(self, k: int, placement: pin.SE3) -> Array:
+        """Obstacle ``k``'s cover centre [m] in the world ``(3,)`` when it is at ``placement``."""
+        return np.asarray(placement.act(self._obstacle_covers[k][0]))
 
     def pair_distances(self, data: pin.Data) -> list[float]:
         """Distance [m] per (guarded geometry, obstacle) pair for the joint placements in ``data``.
