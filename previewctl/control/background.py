@@ -275,13 +275,8 @@ def answer(side: PlanningSide | Searches | Plans, q: Array, t: float) -> Plannin
     return side(q, t)
 
 
-def _inner(side: PlanningSide | ObservedSide) -> PlanningSide:
-    return side.side if isinstance(side, ObservedSide) else side
-
-
-class Searches:
-    """The searches' worker's side of a part with searches and a planner (:func:`split_parts`): one generation per
-    state (:meth:`PlanningSide.searches`).
+class _SplitSide:
+    """A worker's side of a part with searches and a planner (:func:`split_parts`): the planning side it runs.
 
     Args:
         build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
@@ -290,37 +285,45 @@ class Searches:
     def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
         self.side = build()
 
-    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+    @property
+    def inner(self) -> PlanningSide:
+        """The planning side, on the observed obstacles' latest scene if there are any."""
+        return self.side.side if isinstance(self.side, ObservedSide) else self.side
+
+    def _observe(self, observed: tuple[Obstacle, ...]) -> None:
         """Take the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
         if isinstance(self.side, ObservedSide):
             self.side.sync(observed)
+
+
+class Searches(_SplitSide):
+    """The searches' worker's side: one generation per state (:meth:`PlanningSide.searches`)."""
+
+    def sync(self, observed: tuple[Obstacle, ...]) -> None:
+        """Take the loop's observed obstacles."""
+        self._observe(observed)
 
     def __call__(self, q: Array, t: float) -> PlanningResult | None:
         """One generation at the state ``(q, t)``."""
-        return _inner(self.side).searches(q, t)
+        return self.inner.searches(q, t)
 
 
-class Together:
-    """The one worker's side of a part with searches and a planner (:func:`split_parts`) when its plans do not run
-    apart (``plans_apart = False``): at each state one generation, then the planner toward its peaks.
-
-    Args:
-        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
-    """
+class Together(_SplitSide):
+    """The one worker's side when the plans do not run apart (``plans_apart = False``): at each state one generation,
+    then the planner toward its peaks."""
 
     def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
-        self.side = build()
+        super().__init__(build)
         self._plan: PlanningResult | None = None  # the last plan made
 
     def sync(self, observed: tuple[Obstacle, ...]) -> None:
-        """Take the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
-        if isinstance(self.side, ObservedSide):
-            self.side.sync(observed)
+        """Take the loop's observed obstacles."""
+        self._observe(observed)
 
     def __call__(self, q: Array, t: float) -> PlanningResult | None:
         """The searches' answer at the state ``(q, t)``, dated by the plan in use (with it if new); ``None`` before
         the first plan."""
-        side = _inner(self.side)
+        side = self.inner
         searched = side.searches(q, t)
         plan = side.plans(q, t, searched.peaks or [], searched.frames)
         self._plan = plan or self._plan
@@ -345,27 +348,23 @@ class PlanNews:
     observed: tuple[Obstacle, ...] | None
 
 
-class Plans:
-    """The plans' worker's side of a part with searches and a planner (:func:`split_parts`): the planner toward the
-    searches' latest peaks, which the loop relays (:meth:`PlanningSide.plans`).
-
-    Args:
-        build: ``build()``, the planning side (a :class:`PlanningSide` or an :class:`ObservedSide`).
-    """
+class Plans(_SplitSide):
+    """The plans' worker's side: the planner toward the searches' latest peaks, which the loop relays
+    (:meth:`PlanningSide.plans`)."""
 
     def __init__(self, build: Callable[[], PlanningSide | ObservedSide]) -> None:
-        self.side = build()
+        super().__init__(build)
         self.news = PlanNews([], 0, None)
 
     def sync(self, news: PlanNews) -> None:
-        """Take the searches' latest peaks, and the loop's observed obstacles (:meth:`ObservedSide.sync`)."""
+        """Take the searches' latest peaks, and the loop's observed obstacles."""
         self.news = news
-        if isinstance(self.side, ObservedSide) and news.observed is not None:
-            self.side.sync(news.observed)
+        if news.observed is not None:
+            self._observe(news.observed)
 
     def __call__(self, q: Array, t: float) -> PlanningResult | None:
         """The planner's new plan at the state ``(q, t)``, or ``None``."""
-        return _inner(self.side).plans(q, t, self.news.peaks, self.news.frames)
+        return self.inner.plans(q, t, self.news.peaks, self.news.frames)
 
 
 class Follower(WindowPlanner):
