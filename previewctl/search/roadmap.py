@@ -300,18 +300,24 @@ def _spread_out(Q: Array, value: Array, opts: RoadmapOptions) -> IntArray:
 
 
 @numba.njit(cache=True, nogil=True)
+def _gap(Q: Array, a: int, b: int) -> float:  # pragma: no cover - compiled
+    """The largest joint difference between rows ``a`` and ``b`` of ``Q`` (exact, whichever order)."""
+    gap = 0.0
+    for k in range(Q.shape[1]):
+        gap = max(gap, abs(Q[a, k] - Q[b, k]))
+    return gap
+
+
+@numba.njit(cache=True, nogil=True)
 def _spread(Q: Array, order: IntArray, spread: float, kept: IntArray) -> int:  # pragma: no cover - compiled
     """:func:`_spread_out`'s choice in one compiled pass: fills ``kept`` (its length is the beam) and returns how many
     nodes it kept."""
-    beam, rows, n = len(kept), Q.shape[0], Q.shape[1]
+    beam, rows = len(kept), Q.shape[0]
     count = 0
     for i in order:  # the best by value, none within spread of a kept one
         apart = True
         for c in range(count):
-            gap = 0.0
-            for k in range(n):
-                gap = max(gap, abs(Q[kept[c], k] - Q[i, k]))
-            if gap <= spread:
+            if _gap(Q, kept[c], i) <= spread:
                 apart = False
                 break
         if apart:
@@ -322,10 +328,7 @@ def _spread(Q: Array, order: IntArray, spread: float, kept: IntArray) -> int:  #
     nearest = np.full(rows, np.inf)  # each node's largest-joint distance to its nearest kept node
     for r in range(rows):
         for c in range(count):
-            gap = 0.0
-            for k in range(n):
-                gap = max(gap, abs(Q[r, k] - Q[kept[c], k]))
-            nearest[r] = min(nearest[r], gap)
+            nearest[r] = min(nearest[r], _gap(Q, r, kept[c]))
     while count < beam:  # then the farthest from every kept node
         far = int(np.argmax(nearest))
         if nearest[far] <= spread:
@@ -333,10 +336,7 @@ def _spread(Q: Array, order: IntArray, spread: float, kept: IntArray) -> int:  #
         kept[count] = far
         count += 1
         for r in range(rows):
-            gap = 0.0
-            for k in range(n):
-                gap = max(gap, abs(Q[r, k] - Q[far, k]))
-            nearest[r] = min(nearest[r], gap)
+            nearest[r] = min(nearest[r], _gap(Q, r, far))
     return count
 
 
