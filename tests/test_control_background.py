@@ -487,3 +487,34 @@ def test_ctrl_c_in_a_loop_leaves_no_orphan_worker(tmp_path: Path) -> None:
         while not gone(pid):  # the workers are not the test's children: poll until they have been reaped
             assert time.monotonic() < deadline, f"worker {pid} outlived its loop"
             time.sleep(0.1)
+
+
+UNGUARDED = """
+import sys, time
+import numpy as np
+import previewctl as pc
+
+scenario = pc.load_scenario(sys.argv[1])  # no `if __name__ == "__main__":`: the spawned worker runs this again
+with pc.make_controller(scenario, planning="background") as ctrl:
+    q, k, deadline = np.array(scenario.q0), 0, time.monotonic() + float(sys.argv[2])
+    while True:
+        ctrl.step(q, k * 0.004, 0.004)
+        k += 1
+        if ctrl.last_info.worker_error is not None:
+            break
+        assert time.monotonic() < deadline, "no worker error"
+        time.sleep(0.01)
+    print(ctrl.last_info.worker_error, flush=True)
+"""
+
+
+def test_a_worker_lost_at_start_says_why_a_script_needs_its_main_guard(tmp_path: Path) -> None:
+    script = tmp_path / "unguarded.py"
+    script.write_text(UNGUARDED)
+    scene = Path(__file__).resolve().parent.parent / "scenarios" / "paper_fitted.toml"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    run = subprocess.run([sys.executable, str(script), str(scene), str(WAIT)], capture_output=True, text=True,
+                         env=env, timeout=2 * WAIT)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "exited with code 1 before it was ready" in run.stdout
+    assert 'if __name__ == "__main__":' in run.stdout

@@ -116,13 +116,21 @@ class PlanningWorker:
                 self._slot, self._sent_at = None, time.perf_counter()
         except (EOFError, OSError):
             self.error = PlanningWorkerError(f"the planning worker (pid {self.pid}) exited with code "
-                                             f"{self._exit_code()}: no more plans")
+                                             f"{self._exit_code()}{self._start_hint()}: no more plans")
             self.close()
             return answers
         if self._sent_at is not None and time.perf_counter() - self._sent_at > self.timeout:
             self.error = PlanningWorkerError(f"the planning worker (pid {self.pid}) has not answered for more than "
                                              f"{self.timeout:g} s (the timeout)")
         return answers
+
+    def _start_hint(self) -> str:
+        """Why a worker that exits before it is ready most often does: its spawn imports the main script again."""
+        if self.answered:
+            return ""
+        return (" before it was ready (its own error is on stderr). The worker is a spawned process that imports "
+                "the main script again: a script that makes a background controller must run it under "
+                "`if __name__ == \"__main__\":`")
 
     def _exit_code(self) -> int | None:
         self._process.join(GRACE)
