@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from previewctl.control.params import ControllerParams
 from previewctl.errors import ParameterError
-from previewctl.index.evaluator import Evaluator
+from previewctl.index.evaluator import POTENTIAL_ONLY, Evaluator
 from previewctl.robot.joints import FULL_TURN
 from previewctl.robot.model import Robot
 from previewctl.types import Array, BoolArray, IntArray
@@ -143,7 +143,7 @@ class AmsipGradient:
         h, nv, model = self.step, self.robot.nv, self.robot.model
         steps = np.concatenate([np.eye(nv), -np.eye(nv)]) * h
         batch = np.stack([pin.integrate(model, q, d) for d in steps])
-        S = self.evaluator(batch, t).S
+        S = self.evaluator(batch, t, exact_below=POTENTIAL_ONLY).S
         return np.asarray((S[:nv] - S[nv:]) / (2.0 * h))
 
     def __call__(self, q: Array, t: float) -> Array:

@@ -28,7 +28,7 @@ from previewctl.control.nullspace import wrapped_difference
 from previewctl.control.params import ControllerParams
 from previewctl.control.peaks import near
 from previewctl.control.tracking import effective_velocity_limits
-from previewctl.index.evaluator import Evaluator
+from previewctl.index.evaluator import POTENTIAL_ONLY, Evaluator
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
 from previewctl.search.redundancy import wrap_angle
@@ -99,7 +99,7 @@ class SweepRoutes:
             else:
                 branch = branch_a[pairs[:, 0]] if 2 * k <= self.sweep_samples + 1 else branch_b[pairs[:, 1]]
                 Q, reachable = red.solve(genes, branch, np.asarray(path.position(tau), float))
-                ok &= reachable & (self.evaluator(Q, tau).S >= 0.0)
+                ok &= reachable & (self.evaluator(Q, tau, exact_below=POTENTIAL_ONLY).S >= 0.0)
             steps = np.array(
                 [wrapped_difference(self.robot, a, b, keep=self._keep) for a, b in zip(previous, Q, strict=True)]
             )

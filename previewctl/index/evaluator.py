@@ -50,6 +50,10 @@ from previewctl.validation import real_scalar, validate
 
 Method = Literal["auto", "planar", "general"]
 
+POTENTIAL_ONLY = 0.0
+"""The ``exact_below`` [m] of a call that reads only ``S`` and the collisions: its obstacle distances are exact within
+the potential's influence distance and bounds beyond it, the same ``S`` at a fraction of the Coal calls."""
+
 
 @dataclass(frozen=True)
 class Evaluation:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from previewctl.index.evaluator import Evaluator
+from previewctl.index.evaluator import POTENTIAL_ONLY, Evaluator
 from previewctl.search.redundancy import RedundancyMap
 from previewctl.types import Array
 
@@ -49,7 +49,7 @@ def score_configurations(evaluator: Evaluator, Q: Array, reachable: NDArray[np.b
     S = np.full(Q.shape[0], evaluator.potential.collision_value)
     collision = np.zeros(Q.shape[0], dtype=bool)
     if reachable.any():
-        ev = evaluator(Q[reachable], t)
+        ev = evaluator(Q[reachable], t, exact_below=POTENTIAL_ONLY)
         S[reachable] = ev.S
         collision[reachable] = ev.collision | ev.self_collision
     return Scored(Q, reachable, S, collision)
