@@ -9,10 +9,10 @@ package). Reported:
 ``step`` p50, p99 and max [ms], the deadline misses (the fraction of cycles longer than ``dt``), the CPU time of the
 loop's process per step (p50, p99 [ms], ``process_time``: what the host's other jobs take from the wall times does not
 count), how often the cycle fell back to ``qp``, the plan age at use (p50, p95 [s]), the
-results used and the worker's wall time per result used (median, max [s]), ``states/frame``: the states the worker
-answered per camera frame (the loop posts one per frame, and each answer runs one GA generation per imaginary arm:
-1.00 is a generation per arm at every frame; a plan in the worker takes frames from it), and the worker's errors. On
-a shared host the worker competes with everything else; these are not timed tests.
+results used and the worker's wall time per result used (median, max [s]), ``gens/frame``: the GA generations per
+imaginary arm that the searches ran per camera frame, from the first measured cycle whose latest result counts them
+(``frames``) to the last; 1.00 is a generation at every frame; with one worker a plan takes frames from them), and the
+worker's errors. On a shared host the worker competes with everything else; these are not timed tests.
 
 Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]``.
 """
@@ -26,7 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions
+from previewctl.control.background import BackgroundOptions, BackgroundPlanning
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -46,8 +46,7 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
                                {"name": "multi", "planning": "background", "background": options})
     with pc.make_controller(scenario, **kind) as ctrl:
         k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
-        worker = None if ctrl.planning is None else ctrl.planning.worker
-        answered = 0  # the worker's answers when the measured cycles start
+        first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last
         while warm is None or k - warm < cycles:
             if paced:  # sleep to just before the deadline, then spin
                 deadline = start + k * DT
@@ -62,7 +61,7 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
             k += 1
             if warm is None:
                 if info.plan_age is not None:
-                    warm, answered = k, worker.answered if worker is not None else 0
+                    warm = k
                 continue
             times.append(spent)
             cpu.append(cpu_spent)
@@ -73,8 +72,10 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
                 results[result.made] = max(result.compute, results.get(result.made, 0.0))  # a plan's, not a gradient's
             if info.worker_error is not None:
                 errors.add(str(info.worker_error))
-    frames = cycles * DT / scenario.timing.frame
-    states = np.nan if worker is None else (worker.answered - answered) / frames
+            if generations := _generations(ctrl):
+                first, last = first if first[1] else (k, generations), (k, generations)
+    counted_frames = (last[0] - first[0]) * DT / scenario.timing.frame
+    states = (last[1] - first[1]) / counted_frames if counted_frames else np.nan
     ms, cpu_ms = np.array(times) * 1e3, np.array(cpu) * 1e3
     age = np.array(ages) if ages else np.full(1, np.nan)
     compute = np.array(list(results.values())) if results else np.full(1, np.nan)
@@ -82,6 +83,13 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
             f"{np.percentile(cpu_ms, 50):8.3f}{np.percentile(cpu_ms, 99):8.3f}{fallbacks / cycles:10.3f}"
             f"{np.percentile(age, 50):8.2f}{np.percentile(age, 95):8.2f}{len(results):8d}"
             f"{np.median(compute):9.2f}{compute.max():9.2f}{states:10.2f}  {'; '.join(sorted(errors)) or '-'}")
+
+
+def _generations(ctrl: pc.Controller) -> int:
+    """The generations the searches have run, as the worker's latest result says (0 before one)."""
+    planning = ctrl.planning
+    source = planning.searched or planning.result if isinstance(planning, BackgroundPlanning) else None
+    return 0 if source is None or source.frames is None else int(source.frames)
 
 
 def main() -> None:
@@ -97,7 +105,7 @@ def main() -> None:
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
-          f"{'age95':>8}{'results':>8}{'comp50':>9}{'compmax':>9}{'states/fr':>10}  errors")
+          f"{'age95':>8}{'results':>8}{'comp50':>9}{'compmax':>9}{'gens/fr':>10}  errors")
     for key in args.scenes:
         scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
         if args.without_gradient:

@@ -160,6 +160,10 @@ class PlanningSide:
         self._reader = kinematics_reader(robot)
         self._data = robot.model.createData()
         self._sent: ReachMotion | None = None
+        # a process's first compiled call loads numba's registries (about 0.3 s): here, while the worker starts, not
+        # at its first state (the loop then went without a generation for 10-20 frames)
+        kinematics(robot, robot.random_configurations(np.random.default_rng(0), 1),
+                   reader=kinematics_reader(robot, compiled=True))
 
     def __call__(self, q: Array, t: float) -> PlanningResult | None:
         """The result for the state ``(q, t)``; ``None`` when it holds nothing new (the same plan as before).
