@@ -26,8 +26,11 @@ from previewctl import (
     avoidance,
     evaluate,
 )
+from previewctl.control.nullspace import AmsipGradient
+from previewctl.control.params import ControllerParams
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import ConstantVelocity, Static
+from previewctl.search.scoring import score_configurations
 
 Array = NDArray[np.float64]
 LINK, RADIUS = 0.75, 0.03  # planar4 link length and capsule radius [m]
@@ -462,6 +465,29 @@ def test_screened_distances_keep_s_and_bound_the_far_pairs(robot_name: str, requ
     # the half-space alone: every pair computed
     alone = Evaluator(robot, Scene((floor,)))
     np.testing.assert_array_equal(alone(Q, exact_below=0.0).link_distances, alone(Q).link_distances)
+
+
+def test_the_s_only_callers_screen_and_get_the_exact_s(panda: Robot) -> None:
+    """The GA's scoring and the gradient ask for ``POTENTIAL_ONLY``: the same ``S`` and collisions as exact distances
+    everywhere, on balls near and far, some touching the arm."""
+    rng = np.random.default_rng(11)
+    Q = panda.random_configurations(rng, 60)
+    obstacles = [Obstacle(f"ball{i}", previewctl.Sphere(0.06), Static(centre))
+                 for i, centre in enumerate(random_spheres_near_arm(panda, rng, Q[:4]))]
+    evaluator = Evaluator(panda, Scene(tuple(obstacles)))
+    exact = evaluator(Q, 0.0)
+    assert exact.collision.any() and (exact.min_distance > evaluator.potential.influence_distance).any()
+    assert (np.isfinite(exact.S) & (exact.S > 0.0)).any()
+    scored = score_configurations(evaluator, Q, np.ones(len(Q), dtype=bool))
+    np.testing.assert_array_equal(scored.S, exact.S)
+    np.testing.assert_array_equal(scored.collision, exact.collision | exact.self_collision)
+    q, h, nv = Q[0], 1e-4, panda.nv
+    steps = np.concatenate([np.eye(nv), -np.eye(nv)]) * h
+    batch = np.stack([pin.integrate(panda.model, q, d) for d in steps])
+    S = evaluator(batch, 0.0).S
+    params = ControllerParams(gradient_gain=(1.0,), fd_step=h)
+    np.testing.assert_array_equal(AmsipGradient(panda, evaluator, params).gradient(q, 0.0),
+                                  (S[:nv] - S[nv:]) / (2.0 * h))
 
 
 def test_evaluator_is_reproducible(panda: Robot) -> None:

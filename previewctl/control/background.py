@@ -161,7 +161,7 @@ class PlanningSide:
         self._data = robot.model.createData()
         self._sent: ReachMotion | None = None
         # a process's first compiled call loads numba's registries (about 0.3 s): here, while the worker starts, not
-        # at its first state (the loop then went without a generation for 10-20 frames)
+        # at its first state (the loop then went without a generation for 14-22 frames)
         kinematics(robot, robot.random_configurations(np.random.default_rng(0), 1),
                    reader=kinematics_reader(robot, compiled=True))
 
