@@ -88,7 +88,7 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
 def _generations(ctrl: pc.Controller) -> int:
     """The generations the searches have run, as the worker's latest result says (0 before one)."""
     planning = ctrl.planning
-    source = planning.searched or planning.result if isinstance(planning, BackgroundPlanning) else None
+    source = planning.latest_searches if isinstance(planning, BackgroundPlanning) else None
     return 0 if source is None or source.frames is None else int(source.frames)
 
 

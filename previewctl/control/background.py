@@ -451,10 +451,16 @@ class BackgroundPlanning:
         """The loop's stand-in for the law's gradient term ``local``, whose ``∇_q S`` the worker computes."""
         return BackgroundGradient(local.gain, self)
 
+    @property
+    def latest_searches(self) -> PlanningResult | None:
+        """The searches' latest answer: :attr:`searched` for a part with searches and a planner, else the latest
+        result (the searches answer every state)."""
+        return self.result if self.searched is None else self.searched
+
     def local_gradient(self, t: float) -> Array | None:
         """The worker's latest ``∇_q S`` [1/rad] if it is at most ``arms_valid_frames`` frames old at ``t`` [s], else
         ``None``."""
-        source = self.result if self.searched is None else self.searched
+        source = self.latest_searches
         local = None if source is None else source.local
         if local is None or t - local[0] > self.options.arms_valid_frames * self.frame + 1e-9:
             return None
