@@ -14,19 +14,21 @@ imaginary arm that the searches ran per camera frame, from the first measured cy
 (``frames``) to the last; 1.00 is a generation at every frame; with one worker a plan takes frames from them), and the
 worker's errors. On a shared host the worker competes with everything else; these are not timed tests.
 
-Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]``.
+Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]
+[--pin-loop] [--no-loop-core]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 from dataclasses import replace
 
 import numpy as np
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions, BackgroundPlanning
+from previewctl.control.background import BackgroundOptions, BackgroundPlanning, on_the_loop_core
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -34,14 +36,16 @@ DT = 0.004  # [s]
 SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
-def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None) -> str:
+def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None, loop_core: bool = True) -> str:
     """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``; its searches
-    and plans in two workers if ``apart``, one if not, the machine's default if ``None``); a line of its numbers."""
+    and plans in two workers if ``apart``, one if not, the machine's default if ``None``; the workers kept off the
+    loop's core if ``loop_core``); a line of its numbers."""
     robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, cpu, ages, fallbacks, errors = [], [], [], 0, set()
     results: dict[float, float] = {}
-    options = BackgroundOptions() if apart is None else BackgroundOptions(plans_apart=apart)
+    options = BackgroundOptions(loop_core=loop_core)
+    options = options if apart is None else replace(options, plans_apart=apart)
     kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
                                {"name": "multi", "planning": "background", "background": options})
     with pc.make_controller(scenario, **kind) as ctrl:
@@ -102,18 +106,25 @@ def main() -> None:
     parser.add_argument("--workers", type=int, choices=[1, 2], default=None,
                         help="a route's searches and plans in 1 or 2 worker processes (default: the machine's, "
                              "2 from 4 cores on)")
+    parser.add_argument("--pin-loop", action="store_true",
+                        help="run the loop on the core the workers leave free, as `previewctl run --realtime` does "
+                             "(background.on_the_loop_core)")
+    parser.add_argument("--no-loop-core", action="store_true",
+                        help="let the workers run on every core, the loop's included (BackgroundOptions.loop_core)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
           f"{'age95':>8}{'results':>8}{'comp50':>9}{'compmax':>9}{'gens/fr':>10}  errors")
-    for key in args.scenes:
-        scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
-        if args.without_gradient:
-            params = replace(scenario.controller.params, with_gradient=False)
-            scenario = replace(scenario, controller=replace(scenario.controller, params=params))
-        for mode in args.modes:
-            line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2)
-            print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
+    with on_the_loop_core() if args.pin_loop else contextlib.nullcontext():
+        for key in args.scenes:
+            scenario = pc.load_scenario(shipped_scenarios_dir() / f"{SCENES[key]}.toml")
+            if args.without_gradient:
+                params = replace(scenario.controller.params, with_gradient=False)
+                scenario = replace(scenario, controller=replace(scenario.controller, params=params))
+            for mode in args.modes:
+                line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2,
+                               not args.no_loop_core)
+                print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from helpers import interruptible
 from numpy.typing import NDArray
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions, PlanningResult, PlanningSide, answer
+from previewctl.control.background import BackgroundOptions, PlanningResult, PlanningSide, answer, worker_cores
 from previewctl.control.planner import PlanTiming, WindowPlanner
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
@@ -328,7 +328,30 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
             assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness + options.search_niceness)
         else:
             assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + options.niceness)
+        if hasattr(os, "sched_getaffinity"):  # the workers leave the loop one core
+            loop = os.sched_getaffinity(0)
+            kept = loop - {min(loop)} if len(loop) >= 2 else loop
+            assert [os.sched_getaffinity(p) for p in pids] == [kept] * len(pids)
     assert all(gone(p) for p in pids) and not multiprocessing.active_children()
+
+
+@pytest.mark.parametrize(("cores", "machine", "kept"), [({0}, 1, None), ({0, 1}, 2, {1}), ({2, 5, 7}, 8, {5, 7}),
+                                                       ({3}, 4, {0, 1, 2}), ({1}, 2, {0})])
+def test_the_workers_cores_are_the_processs_but_its_lowest(monkeypatch: pytest.MonkeyPatch, cores: set[int],
+                                                           machine: int, kept: set[int] | None) -> None:
+    """A loop on several cores keeps the lowest; a loop pinned to one keeps it, and the workers take the others."""
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(cores), raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: machine)
+    assert worker_cores() == kept
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) < 2,
+                    reason="CPU affinity on two cores or more")
+def test_without_a_loop_core_the_worker_runs_on_the_loops_cores() -> None:
+    with stand_in_controller(background=BackgroundOptions(loop_core=False)) as ctrl:
+        assert os.sched_getaffinity(ctrl.planning.worker.pid) == os.sched_getaffinity(0)  # type: ignore[union-attr]
+    with stand_in_controller() as ctrl:
+        assert os.sched_getaffinity(ctrl.planning.worker.pid) == worker_cores()  # type: ignore[union-attr]
 
 
 @pytest.mark.parametrize(("cores", "apart"), [(1, False), (2, False), (3, False), (4, True), (16, True)])

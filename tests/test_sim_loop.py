@@ -479,6 +479,18 @@ def test_a_real_time_run_waits_for_the_wall_clock_and_plans_in_the_background() 
     assert not multiprocessing.active_children()  # the worker ended with the run
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) < 2,
+                    reason="CPU affinity on two cores or more")
+def test_a_real_time_loop_runs_on_the_core_its_workers_leave_free() -> None:
+    scenario = scenario_from_dict(planar_doc(controller={"name": "multi"}, timing={"duration": 0.2}))
+    before, seen = os.sched_getaffinity(0), []
+    with make_controller(scenario, dt=0.01, planning="background") as ctrl:
+        workers = os.sched_getaffinity(ctrl.planning.worker.pid)  # type: ignore[union-attr]
+        simulate(scenario, controller=ctrl, rate=100.0, progress=lambda *_: seen.append(os.sched_getaffinity(0)))
+    assert seen and all(cores == {min(before)} for cores in seen) and not workers & {min(before)}
+    assert os.sched_getaffinity(0) == before  # restored once the run ended
+
+
 def test_a_controller_with_nothing_to_plan_runs_inline_at_real_time() -> None:
     scenario = scenario_from_dict(planar_doc(controller={"name": "qp"}, timing={"duration": 0.3}))
     start = time.perf_counter()

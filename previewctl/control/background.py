@@ -40,10 +40,11 @@ fast the worker is).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Annotated
@@ -79,6 +80,32 @@ def available_cores() -> int:
     return os.cpu_count() or 1
 
 
+def worker_cores() -> frozenset[int] | None:
+    """The cores the workers may run on so as to leave the loop one: all this process may run on but the
+    lowest-numbered; for a loop pinned to one core (``os.sched_setaffinity``), every other core of the machine.
+    ``None`` (no restriction) on a one-core machine or where the OS sets no CPU affinity."""
+    if not hasattr(os, "sched_getaffinity"):
+        return None
+    loop = os.sched_getaffinity(0)
+    others = loop - {min(loop)} if len(loop) >= 2 else set(range(os.cpu_count() or 1)) - loop
+    return frozenset(others) or None
+
+
+@contextlib.contextmanager
+def on_the_loop_core() -> Iterator[None]:
+    """Run the calling thread on the core :func:`worker_cores` leaves to the loop (its lowest), then restore its CPU
+    affinity; nothing where the OS sets none or on one core. A loop on every core is woken on whichever is free,
+    the workers' included (docs/speed.md, "A core for the loop")."""
+    if not hasattr(os, "sched_getaffinity") or len(before := os.sched_getaffinity(0)) < 2:
+        yield
+        return
+    os.sched_setaffinity(0, {min(before)})
+    try:
+        yield
+    finally:
+        os.sched_setaffinity(0, before)
+
+
 @dataclass(frozen=True)
 class BackgroundOptions(Checked):
     """How long the worker's results stay valid, and how the worker runs.
@@ -98,6 +125,10 @@ class BackgroundOptions(Checked):
             fewer beside the loop, and no generation while it makes a plan). Default: two workers when the process
             may run on at least :data:`APART_CORES` cores (:func:`available_cores`); on two shared cores one
             worker kept the real-time Panda runs' plans fresher (docs/speed.md, "Plans in a worker of their own").
+        loop_core: keep the workers off one core, the lowest-numbered this process may run on (:func:`worker_cores`),
+            so that the loop always finds it free. Without it the OS places a worker, woken by the loop's message,
+            on the loop's core, and the loop's step waits (docs/speed.md, "A core for the loop"). No effect on one
+            core; ``False``: the workers run on every core this process may.
     """
 
     arms_valid_frames: Positive = 3.0
@@ -106,6 +137,7 @@ class BackgroundOptions(Checked):
     niceness: Annotated[Integer, Field(ge=0, le=19)] = 5
     search_niceness: Annotated[Integer, Field(ge=0, le=19)] = 3
     plans_apart: bool = field(default_factory=lambda: available_cores() >= APART_CORES)
+    loop_core: bool = True
 
 
 @dataclass(frozen=True)
@@ -486,13 +518,14 @@ class BackgroundPlanning:
         (:class:`Plans`)."""
         options = self.options
         side: Callable[[], object] = build
-        niceness = options.niceness
+        niceness, cores = options.niceness, worker_cores() if options.loop_core else None
         if self._split and options.plans_apart:
-            self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout, niceness=niceness)
+            self.plans = PlanningWorker(partial(Plans, build), answer, timeout=options.timeout, niceness=niceness,
+                                        cores=cores)
             side, niceness = partial(Searches, build), min(19, niceness + options.search_niceness)
         elif self._split:
             side = partial(Together, build)
-        self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=niceness)
+        self.worker = PlanningWorker(side, compute, timeout=options.timeout, niceness=niceness, cores=cores)
 
     def exchange(self, state: ControlState, observed: tuple[Obstacle, ...] | None = None) -> PlanningStatus:
         """Post the state at a new frame (with the observed obstacles, if any), take the worker's answer if one came,

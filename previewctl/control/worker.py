@@ -10,10 +10,12 @@ behind a slow worker; shared memory would need a lock the worker may die holding
 
 The worker is a *spawned* process (Pinocchio and Coal keep the GIL, so a thread would stall the loop; a fork of a
 process with threads is unsafe): it rebuilds its parts from the picklable ``build`` it is given, lowers its OS
-priority by ``niceness`` and ignores SIGINT (Ctrl-C stops the loop, whose :meth:`PlanningWorker.close` ends the
-worker). A worker that exits, raises, or does not answer within ``timeout`` is reported as a
-:class:`~previewctl.errors.PlanningWorkerError`; the loop goes on without it. :meth:`PlanningWorker.close` asks it to
-stop, then terminates and finally kills it; a ``weakref.finalize`` does the same for a worker that was never closed.
+priority by ``niceness``, runs only on the ``cores`` it is given (the loop's own core left out: a worker woken by
+the loop's message would otherwise be placed on the loop's core and delay it) and ignores SIGINT (Ctrl-C stops the
+loop, whose :meth:`PlanningWorker.close` ends the worker). A worker that exits, raises, or does not answer within
+``timeout`` is reported as a :class:`~previewctl.errors.PlanningWorkerError`; the loop goes on without it.
+:meth:`PlanningWorker.close` asks it to stop, then terminates and finally kills it; a ``weakref.finalize`` does the
+same for a worker that was never closed.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ class PlanningWorker:
         compute: a picklable ``compute(side, q, t)`` run for each state the worker receives.
         timeout: how long [s] of wall time a state may stay unanswered before the worker counts as hung.
         niceness: how much the worker lowers its OS priority (``os.nice``).
+        cores: the CPUs the worker may run on (``os.sched_setaffinity``); ``None``: those of this process.
 
     Attributes:
         error: why the worker gives no result (``None`` while it answers).
@@ -59,7 +62,8 @@ class PlanningWorker:
         answered: how many answers the worker has sent: its ready message, then one per state (an error counts).
     """
 
-    def __init__(self, build: Callable[[], Any], compute: Compute, *, timeout: float, niceness: int) -> None:
+    def __init__(self, build: Callable[[], Any], compute: Compute, *, timeout: float, niceness: int,
+                 cores: frozenset[int] | None = None) -> None:
         context = multiprocessing.get_context("spawn")
         self._conn, child = context.Pipe(duplex=True)
         self._process = context.Process(target=_serve, args=(child, build, compute, niceness), daemon=True,
@@ -68,6 +72,9 @@ class PlanningWorker:
             self._process.start()
         child.close()
         self.pid = int(self._process.pid or 0)
+        if cores:
+            with contextlib.suppress(OSError):  # none of them allowed (a container's cpuset): the process's own
+                os.sched_setaffinity(self.pid, cores)
         self.timeout = timeout
         self.error: PlanningWorkerError | None = None
         self.answered = 0

@@ -27,6 +27,7 @@ your own loop gets the same numbers from the same calls.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Callable, Iterable
@@ -34,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from previewctl.control.background import on_the_loop_core
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
 from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
@@ -93,8 +95,9 @@ def simulate(
             controller made here plans in the background if it can (``single``, ``multi``, ``reach``, ``horizon``,
             ``oracle``; the others have nothing to plan and run inline); it is closed when the run ends, also on
             Ctrl-C. The clock starts once the planning worker has answered the start state (a robot holds still
-            until its planner is ready), or failed. Default: simulated time, the scenario's ``dt``, inline planning
-            (deterministic).
+            until its planner is ready), or failed. The loop runs on the core the workers leave free
+            (:func:`~previewctl.control.background.on_the_loop_core`) until the run ends. Default: simulated time,
+            the scenario's ``dt``, inline planning (deterministic).
 
     Returns:
         The log.
@@ -130,7 +133,8 @@ def simulate(
         if rate is not None:
             _wait_for_planning(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
-        count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
+        with contextlib.nullcontext() if rate is None else on_the_loop_core():
+            count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
             controller.close()
