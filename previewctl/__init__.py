@@ -56,7 +56,7 @@ from previewctl.search.ga import OneStepGA
 from previewctl.search.genes import Candidate
 from previewctl.search.maps import redundancy_map
 from previewctl.sensing.options import Sensing
-from previewctl.sensing.predictors import ConstantVelocityKalman, Predictor, Stationary
+from previewctl.sensing.predictors import ConstantVelocityKalman, ManoeuvreKalman, Predictor, Stationary
 from previewctl.sim.log import RunResult, load_run, save_run
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
@@ -84,6 +84,7 @@ __all__ = [
     "HandPath",
     "IndexParams",
     "Landscape",
+    "ManoeuvreKalman",
     "Mesh",
     "ObservationError",
     "Obstacle",

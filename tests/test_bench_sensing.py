@@ -63,8 +63,8 @@ def test_report_sets_observed_runs_beside_perfect_foresight_on_the_same_scenes(t
     text = write_report(records, [], tmp_path)[0].read_text()
     assert "| multi (observed) | qp | 3 | 67% |" in text and "| qp (observed) | qp | 4 | 25% |" in text
     assert "## Observed against perfect foresight (success < 1 mm, same scenes and seeds)\n\nObserved runs: 6 with " \
-           "30 Hz, 5 mm noise, 50 ms latency, dropout 0; predicted by kalman, q = 0.01 m²/s³, margin min(3 cm, 2 σ); " \
-           "and 1 with settings not recorded.\n" in text  # what each run recorded, not today's defaults
+           "30 Hz, 5 mm noise, 50 ms latency, dropout 0; predicted by imm, q = 0.0001 cruising, 0.1 manoeuvring " \
+           "m²/s³, margin min(3 cm, 2 σ); and 1 with settings not recorded.\n" in text  # each run's record
     assert "| planar4 | multi | qp | 3 | 100% | 67% | -33 |" in text
     assert "| planar4 | qp | qp | 4 | 50% | 25% | -25 |" in text
     # preview (observed) is set against qp fed the same observations: it wins scene 2 (known qp succeeds there)

@@ -73,12 +73,14 @@ def test_every_bad_observation_is_a_typed_error_naming_the_value_and_changes_not
     w.advance(1.0)
     track = w.scene.obstacles[1].motion
     assert isinstance(track, Track)
-    before = (track.revision, track.last, track.predictor.x.copy())  # type: ignore[attr-defined]
+    ahead = np.array([1.0, 1.5])
+    before = (track.revision, track.last, track.positions(ahead), track.margin(ahead))
     call = {"name": "ball", "position": [1.1, 0.6], "t": 1.1, **kwargs}
     with pytest.raises(ObservationError, match=message):
         w.observe(call.pop("name"), call.pop("position"), call.pop("t"), **call)  # type: ignore[arg-type]
     assert (track.revision, track.last) == before[:2]
-    np.testing.assert_array_equal(track.predictor.x, before[2])  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(track.positions(ahead), before[2])
+    np.testing.assert_array_equal(track.margin(ahead), before[3])
     assert w.advance(1.1) == type(w.advance(1.1))(late=0)
 
 
@@ -126,9 +128,9 @@ def test_names_must_be_obstacles_of_the_scene() -> None:
 
 
 def test_sensing_refuses_an_unknown_predictor() -> None:
-    with pytest.raises(UnknownNameError, match="unknown predictor 'kalmann'; valid: kalman, stationary"):
+    with pytest.raises(UnknownNameError, match="unknown predictor 'kalmann'; valid: kalman, imm, stationary"):
         pc.Sensing(predictor="kalmann")
-    with pytest.raises(pc.ParameterError, match="predictor must be one of kalman, stationary or a Predictor"):
+    with pytest.raises(pc.ParameterError, match="predictor must be one of kalman, imm, stationary or a Predictor"):
         pc.Sensing(predictor=3)
     with pytest.raises(pc.ParameterError, match="timeout"):
         pc.Sensing(timeout=0.0)

@@ -316,8 +316,9 @@ def write_report(records: list[dict[str, Any]], scenes: list[dict[str, Any]], ou
     if any(_sensing(r) != KNOWN for r in records):
         lines += ["Rows marked *(observed)* (`previewctl bench --sensing observed`): the controller did not read the "
                   "moving obstacles' motion; the simulator observed it (noise, latency) and fed it the observations, "
-                  "from which it predicted (`[sensing]`, the constant-velocity Kalman filter by default). The check "
-                  "and the verdict use the true motion; `none` and `oracle` always run with perfect foresight.", ""]
+                  "from which it predicted (`[sensing]`; by default two constant-velocity Kalman filters, cruising and "
+                  "manoeuvring, mixed). The check and the verdict use the true motion; `none` and `oracle` always run "
+                  "with perfect foresight.", ""]
     lines += ["## Success rates", ""]
     for robot, cells in groups.items():
         lines += _rates_table(robot, cells)

@@ -32,6 +32,7 @@ from previewctl.errors import shared_settings
 from previewctl.index.evaluator import Evaluator
 from previewctl.search.reachability import ReachMotion
 from previewctl.sensing.options import Sensing
+from previewctl.sensing.predictors import ManoeuvreKalman
 from previewctl.sim.log import RunResult
 from previewctl.sim.loop import simulate
 from previewctl.sim.scenario import Scenario, scenario_from_dict
@@ -193,8 +194,11 @@ def plan_costs(costs: list[float]) -> dict[str, Any]:
 
 def sensing_summary(sensing: Sensing) -> str:
     """What an observed run was fed and predicted with, in one line (the result line's ``sensing_settings``)."""
+    predictor = sensing.new_predictor()
+    noise = (f"q = {predictor.models[0].q:g} cruising, {predictor.models[1].q:g} manoeuvring"
+             if isinstance(predictor, ManoeuvreKalman) else f"q = {sensing.process_noise:g}")
     return (f"{sensing.rate:g} Hz, {sensing.noise * 1e3:g} mm noise, {sensing.latency * 1e3:g} ms latency, dropout "
-            f"{sensing.dropout:g}; predicted by {sensing.predictor}, q = {sensing.process_noise:g} m²/s³, margin "
+            f"{sensing.dropout:g}; predicted by {sensing.predictor}, {noise} m²/s³, margin "
             f"min({sensing.margin_cap * 1e2:g} cm, {sensing.confidence:g} σ)")
 
 

@@ -11,12 +11,12 @@ from pydantic import Field
 from previewctl.errors import ParameterError, UnknownNameError
 from previewctl.scene.motion import Static
 from previewctl.scene.shapes import Scene
-from previewctl.sensing.predictors import ConstantVelocityKalman, Predictor, Stationary
+from previewctl.sensing.predictors import ConstantVelocityKalman, ManoeuvreKalman, Predictor, Stationary
 from previewctl.validation import Checked, Integer, NonNegative, Positive, Probability, Text, show
 
-PredictorName = Literal["kalman", "stationary"]
-"""The built-in predictors: :class:`~previewctl.sensing.predictors.ConstantVelocityKalman` and
-:class:`~previewctl.sensing.predictors.Stationary`."""
+PredictorName = Literal["kalman", "imm", "stationary"]
+"""The built-in predictors: :class:`~previewctl.sensing.predictors.ConstantVelocityKalman`,
+:class:`~previewctl.sensing.predictors.ManoeuvreKalman` and :class:`~previewctl.sensing.predictors.Stationary`."""
 PREDICTORS: tuple[str, ...] = get_args(PredictorName)
 
 
@@ -25,17 +25,19 @@ class Sensing(Checked):
     """Obstacles the controller observes instead of reading their motion (:mod:`previewctl.sensing`).
 
     Attributes:
-        predictor: ``"kalman"`` (a constant-velocity Kalman filter), ``"stationary"``, or a
+        predictor: ``"imm"`` (the default: a cruising and a manoeuvring constant-velocity Kalman filter, mixed,
+            :class:`~previewctl.sensing.predictors.ManoeuvreKalman` with its own two process noises), ``"kalman"``
+            (one constant-velocity Kalman filter), ``"stationary"``, or a
             :class:`~previewctl.sensing.predictors.Predictor` of your own, copied for each obstacle.
         timeout: an obstacle not observed for longer than this [s] (judged at each step's time) is dropped.
         names: the scene's obstacles that are observed; ``None``: every moving one (static ones stay known, like a
             planning scene). They enter the controller's scene when first observed. Any other name observed with a
             shape is added.
-        process_noise: the built-in predictors' ``q``: white-noise acceleration [m²/s³] (``kalman``), random-walk
-            velocity [m²/s] (``stationary``).
+        process_noise: the ``q`` of ``kalman`` (white-noise acceleration [m²/s³]) and ``stationary`` (random-walk
+            velocity [m²/s]); ``imm`` keeps its own two.
         measurement_noise: the standard deviation ``r`` [m] of an observed position.
-        velocity_noise: the standard deviation [m/s] of an observed velocity (``kalman``).
-        initial_speed: the standard deviation [m/s] of an obstacle's velocity before it is known (``kalman``).
+        velocity_noise: the standard deviation [m/s] of an observed velocity (``kalman``, ``imm``).
+        initial_speed: the standard deviation [m/s] of an obstacle's velocity before it is known (``kalman``, ``imm``).
         confidence: ``k`` of the margin ``min(cap, k σ(t))`` [m] by which a predicted obstacle is inflated.
         margin_cap: ``cap`` [m] of that margin.
         rate: the simulator's observations per obstacle per second [Hz] (:mod:`previewctl.sim.sensor`).
@@ -45,7 +47,7 @@ class Sensing(Checked):
         seed: the seed of the simulator's noise and dropouts.
     """
 
-    predictor: PredictorName | Any = "kalman"
+    predictor: PredictorName | Any = "imm"
     timeout: Positive = 1.0
     names: tuple[Text, ...] | None = None
     process_noise: NonNegative = 0.01
@@ -81,6 +83,9 @@ class Sensing(Checked):
         if self.predictor == "kalman":
             return ConstantVelocityKalman(self.process_noise, self.measurement_noise, self.velocity_noise,
                                           self.initial_speed)
+        if self.predictor == "imm":
+            return ManoeuvreKalman(r=self.measurement_noise, velocity_noise=self.velocity_noise,
+                                   initial_speed=self.initial_speed)
         if self.predictor == "stationary":
             return Stationary(self.process_noise, self.measurement_noise)
         return copy.deepcopy(self.predictor)  # type: ignore[no-any-return]

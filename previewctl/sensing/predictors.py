@@ -2,9 +2,9 @@
 
 A predictor (:class:`Predictor`) takes the observations of one obstacle in time order (``update``) and answers, for
 any times, the predicted position (``predict``) and the standard deviation of each coordinate of that position
-(``sigma``), isotropic. Two are built in; the axes are independent, each with the same covariance:
+(``sigma``), isotropic. Three are built in; the axes are independent, each with the same covariance:
 
-* :class:`ConstantVelocityKalman` (the default): a Kalman filter per axis on the state ``(x, v)`` with white-noise
+* :class:`ConstantVelocityKalman`: a Kalman filter per axis on the state ``(x, v)`` with white-noise
   acceleration of spectral density ``q`` [m²/s³] and position measurements of standard deviation ``r`` [m]. Between
   observations ``Δt`` apart the state moves by ``F = [[1, Δt], [0, 1]]`` and its covariance grows by
   ``Q = q [[Δt³/3, Δt²/2], [Δt²/2, Δt]]``. The prediction at look-ahead ``τ = t − t_last`` from the last observation
@@ -13,6 +13,19 @@ any times, the predicted position (``predict``) and the standard deviation of ea
       σ(τ)² = P_xx + 2 τ P_xv + τ² P_vv + q τ³ / 3        (τ >= 0; σ(τ) = σ(0) before the last observation)
 
   (the position entry of ``F P Fᵀ + Q`` for ``Δt = τ``).
+* :class:`ManoeuvreKalman` (the default): an interacting multiple model (IMM) filter of two such Kalman filters,
+  one cruising (small ``q``: a velocity that hardly drifts, so a prediction seconds ahead stays close on a straight)
+  and one manoeuvring (large ``q``: it follows a turn, a stop or a speed-up within a few observations), each model
+  held for a mean time before it switches (``P(switch over Δt) = 1 − exp(−Δt / T_j)``). At each observation each filter
+  starts from the mixture of both states, weighted by ``P(model i before | model j now)`` (the spread of the means,
+  averaged over the axes, added to the covariance, which stays the same on every axis), takes the observation,
+  and the model probabilities ``μ_j`` are reweighted by how likely each filter found it (the Gaussian density of
+  its innovation). The prediction is ``m(τ) = Σ_j μ_j m_j(τ)`` and
+
+      σ(τ)² = Σ_j μ_j (σ_j(τ)² + |m_j(τ) − m(τ)|² / 3)
+
+  the mixture's variance per coordinate. On a straight the cruising model holds almost all the probability and σ
+  stays small; through a turn the manoeuvring one takes over and σ says so.
 * :class:`Stationary`: the obstacle stays where it is, up to a random walk of velocity spectral density ``q``
   [m²/s]: per axis a Kalman filter on ``x`` alone; the prediction is ``x`` and ``σ(τ)² = P + q τ``. With ``q = 0`` its
   estimate is the mean of the observations (a batch least-squares estimate).
@@ -65,10 +78,13 @@ class ConstantVelocityKalman:
         self.x = np.zeros(3)  # position [m]
         self.v = np.zeros(3)  # velocity [m/s]
         self.P = np.zeros((2, 2))  # covariance of (x, v) per axis [m², m²/s, m²/s²]
+        self.log_likelihood = 0.0
+        """The log-likelihood of the last observation under the filter's prediction (0 for the first)."""
 
     def update(self, t: float, position: Array, velocity: Array | None = None) -> None:
         """Predict the state to ``t`` [s], then correct it with the position ``(3,)`` [m] (and velocity ``(3,)``
         [m/s]); the first observation starts the filter at it."""
+        self.log_likelihood = 0.0
         if self.t is None:
             self.x, self.v = np.array(position, dtype=float), np.zeros(3)
             self.P = np.diag([self.r ** 2, self.initial_speed ** 2])
@@ -76,16 +92,20 @@ class ConstantVelocityKalman:
             dt = t - self.t
             self.x = self.x + self.v * dt
             self.P = self._propagated(dt)
-            gain = self.P[:, 0] / (self.P[0, 0] + self.r ** 2)  # K = P Hᵀ / (H P Hᵀ + r²), H = [1, 0]
-            innovation = np.asarray(position, dtype=float) - self.x
-            self.x, self.v = self.x + gain[0] * innovation, self.v + gain[1] * innovation
-            self.P = self.P - np.outer(gain, self.P[0])
+            self._correct(0, np.asarray(position, dtype=float) - self.x, self.r)
         if velocity is not None:  # a second measurement, H = [0, 1]
-            gain = self.P[:, 1] / (self.P[1, 1] + self.velocity_noise ** 2)
-            innovation = np.asarray(velocity, dtype=float) - self.v
-            self.x, self.v = self.x + gain[0] * innovation, self.v + gain[1] * innovation
-            self.P = self.P - np.outer(gain, self.P[1])
+            self._correct(1, np.asarray(velocity, dtype=float) - self.v, self.velocity_noise)
         self.t = float(t)
+
+    def _correct(self, row: int, innovation: Array, noise: float) -> None:
+        """The Kalman correction by a measurement of the state's ``row`` (0: position, 1: velocity) on every axis,
+        ``innovation`` ``(3,)`` its difference from the prediction, ``noise`` its standard deviation; adds the
+        measurement's log-likelihood ``Σ_axes log N(innovation; 0, H P Hᵀ + noise²)`` to :attr:`log_likelihood`."""
+        spread = self.P[row, row] + noise ** 2
+        gain = self.P[:, row] / spread  # K = P Hᵀ / (H P Hᵀ + noise²)
+        self.x, self.v = self.x + gain[0] * innovation, self.v + gain[1] * innovation
+        self.P = self.P - np.outer(gain, self.P[row])
+        self.log_likelihood -= 0.5 * float(innovation @ innovation / spread + 3 * np.log(2 * np.pi * spread))
 
     def _propagated(self, dt: float) -> Array:
         """The covariance ``F P Fᵀ + Q`` after ``dt`` [s] (module docstring)."""
@@ -106,6 +126,76 @@ class ConstantVelocityKalman:
         tau = np.maximum(self._ahead(times), 0.0)
         P = self.P
         return np.sqrt(P[0, 0] + 2 * tau * P[0, 1] + tau ** 2 * P[1, 1] + self.q * tau ** 3 / 3)
+
+
+class ManoeuvreKalman:
+    """Two constant-velocity Kalman filters, cruising and manoeuvring, mixed by an interacting multiple model (IMM)
+    filter (module docstring).
+
+    Args:
+        q_cruise: the cruising filter's ``q`` [m²/s³]: a velocity that drifts little.
+        q_manoeuvre: the manoeuvring filter's ``q`` [m²/s³]: turns, stops and speed-ups.
+        cruise_time: the mean time [s] an obstacle cruises before it manoeuvres.
+        manoeuvre_time: the mean time [s] a manoeuvre lasts.
+        r, velocity_noise, initial_speed: as :class:`ConstantVelocityKalman`'s.
+
+    Attributes:
+        models: the two filters, ``(cruising, manoeuvring)``.
+        probabilities: ``(2,)`` the probability of each model given the observations.
+    """
+
+    def __init__(self, q_cruise: float = 1e-4, q_manoeuvre: float = 0.1, cruise_time: float = 2.0,
+                 manoeuvre_time: float = 0.5, r: float = 0.005, velocity_noise: float = 0.05,
+                 initial_speed: float = 1.0) -> None:
+        self.models = tuple(ConstantVelocityKalman(q, r, velocity_noise, initial_speed)
+                            for q in (q_cruise, q_manoeuvre))
+        self.times = np.array([cruise_time, manoeuvre_time])
+        self.probabilities = np.array([0.5, 0.5])
+
+    @property
+    def t(self) -> float | None:
+        """Time [s] of the last observation, ``None`` before the first."""
+        return self.models[0].t
+
+    def update(self, t: float, position: Array, velocity: Array | None = None) -> None:
+        """Mix the two filters' states by the chance of a switch since the last observation, update each with the
+        observation at ``t`` [s], and weigh them by how well each foresaw it (module docstring)."""
+        if self.t is not None:
+            self._mix(t - self.t)
+        for model in self.models:
+            model.update(t, position, velocity)
+        log = np.log(np.maximum(self.probabilities, 1e-300)) + [model.log_likelihood for model in self.models]
+        weights = np.exp(log - log.max())
+        self.probabilities = weights / weights.sum()
+
+    def _mix(self, dt: float) -> None:
+        """Each filter starts the step from the mixture of both states, weighted by ``P(was i | is j)``."""
+        leave = 1.0 - np.exp(-dt / self.times)  # (2,) the chance that each model switched over dt
+        switch = np.array([[1.0 - leave[0], leave[0]], [leave[1], 1.0 - leave[1]]])  # [i, j]: from i to j
+        joint = self.probabilities[:, None] * switch
+        prior = joint.sum(axis=0)
+        given = joint / np.maximum(prior, 1e-300)  # [i, j]: P(was i | is j)
+        states = [np.stack([m.x, m.v]) for m in self.models]  # (2, 3) each
+        covariances = [m.P for m in self.models]
+        mixed = []
+        for j in range(2):
+            mean = sum(given[i, j] * states[i] for i in range(2))
+            P = sum(given[i, j] * (covariances[i] + (states[i] - mean) @ (states[i] - mean).T / 3) for i in range(2))
+            mixed.append((mean, P))
+        for model, (mean, P) in zip(self.models, mixed, strict=True):
+            model.x, model.v, model.P = mean[0], mean[1], P
+        self.probabilities = prior
+
+    def predict(self, times: ArrayLike) -> Array:
+        """``Σ_j μ_j (x_j + v_j τ)`` ``(T, 3)`` [m] at times ``(T,)`` [s]."""
+        return sum(mu * model.predict(times) for mu, model in zip(self.probabilities, self.models, strict=True))
+
+    def sigma(self, times: ArrayLike) -> Array:
+        """The mixture's ``σ(τ)`` ``(T,)`` [m] at times ``(T,)`` [s] (module docstring)."""
+        mean = self.predict(times)
+        variance = sum(mu * (model.sigma(times) ** 2 + ((model.predict(times) - mean) ** 2).sum(axis=1) / 3)
+                       for mu, model in zip(self.probabilities, self.models, strict=True))
+        return np.sqrt(variance)
 
 
 class Stationary:

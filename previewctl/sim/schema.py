@@ -215,7 +215,7 @@ IndexTable: Any = table("index", IndexParams, exclude=("rank_tolerance",))
 PotentialTable: Any = table("potential", Potential)
 VerdictTable: Any = table("verdict", Verdict)
 OutputTable: Any = table("output", OutputSpec)
-SensingTable: Any = table("sensing", Sensing, exclude=("predictor",), predictor=(PredictorName, "kalman"))
+SensingTable: Any = table("sensing", Sensing, exclude=("predictor",), predictor=(PredictorName, Sensing.predictor))
 """``[sensing]``: :class:`~previewctl.sensing.options.Sensing`, its ``predictor`` one of the built-in names."""
 
 
