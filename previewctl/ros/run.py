@@ -9,6 +9,7 @@ from types import FrameType
 
 import numpy as np
 
+from previewctl.control.background import on_the_loop_core
 from previewctl.extras import require
 from previewctl.ros.environment import loopback_environment
 
@@ -57,7 +58,8 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
             angles = setup.robot.angles_of(np.asarray(q0, dtype=float)[None])[0]
             executor.add_node(FakeRobot(node.joint_names, angles.tolist(), 4 * node.settings.rate,
                                         node.settings.commands_topic, node.settings.joint_states_topic))
-        executor.spin()
+        with on_the_loop_core():  # the node's loop on the core its planning workers leave free
+            executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
