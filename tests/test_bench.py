@@ -26,7 +26,7 @@ from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import WORKER_MALLOC, Sweep, dask_client
 from previewctl.bench.witness import Witnessed, witness
 from previewctl.cli.main import main
-from previewctl.control.params import CONTROLLER_NAMES, SEEDED_CONTROLLERS
+from previewctl.control.params import CONTROLLER_NAMES, EXECUTION_MODES, SEEDED_CONTROLLERS
 from previewctl.errors import IgnoredSettingWarning, ParameterError, UnknownNameError
 from previewctl.search.reachability import ReachMotion
 from previewctl.sim.loop import simulate
@@ -291,7 +291,8 @@ def test_report_shows_the_measured_latency_rows_beside_the_inline_ones(tmp_path:
     rows = [line for line in text.splitlines() if line.startswith("| multi")]
     assert rows[0].startswith("| multi | qp | 2 | 100% |")
     assert rows[1].startswith("| multi (measured latency) | qp | 2 | 50% |")
-    assert "they are not bit-reproducible" in text and "--latency measured,none`" in text
+    assert "they are not bit-reproducible" in text
+    assert "--latency measured,none --controller qp,multi --execution qp`" in text
     assert "| planar4 | multi (measured latency) | qp | 2 | 16 | 0.250 | 0.500 | 0.750 |" in text
     assert "| planar4 | multi | qp | 0:0 | - |" in text
     assert "| planar4 | multi (measured latency) | qp | 0:0 | 1:0 |" in text
@@ -430,9 +431,12 @@ def test_report_says_when_at_which_commits_and_on_which_scenes_and_seeds_it_was_
     assert "from 4 runs measured" in text
     again = write_report([*records, dict(records[0])], [], tmp_path)[0].read_text()  # a run appended twice
     assert "from 4 runs measured" in again and "| multi | qp | 3 |" in again
-    reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {}` |"
-    assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0) in text
-    assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4) in text
+    reproduce = "`previewctl bench --robot planar4 --scenes {} --scene-seed {} --controller {} --execution qp` |"
+    assert "| planar4 | 0-2 | 0 | 0 | multi | qp | " + reproduce.format(3, 0, "multi") in text
+    assert "| planar4 | 5 | 4 | 0 | qp | qp | " + reproduce.format(6, 4, "qp") in text
+    every = [_record(0, name, True) | {"execution": mode} for name in CONTROLLER_NAMES for mode in EXECUTION_MODES]
+    text = write_report(every, [], tmp_path)[0].read_text()  # the defaults: no --controller, no --execution
+    assert "`previewctl bench --robot planar4 --scenes 1 --scene-seed 0` |" in text
 
 
 def test_published_report_leaves_the_kept_runs_out_and_bad_names_are_refused(tmp_path: Path,

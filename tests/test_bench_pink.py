@@ -189,7 +189,8 @@ def test_report_sets_pink_beside_qp_and_preview_against_pink_with_a_note(tmp_pat
     assert "| planar4 | multi | qp | 1:0 | 2:0 |" in text.split("against the `pink` baseline")[1]
     assert "`pink` γ = 20 1/s" in text and "pink-g100" not in text
     assert "does not know how fast an obstacle comes" in text
-    assert "`previewctl bench --robot planar4 --scenes 3 --scene-seed 0 --controller qp,multi,pink` |" in text
+    assert "`previewctl bench --robot planar4 --scenes 3 --scene-seed 0 --controller qp,multi,pink --execution qp` |" \
+        in text
     assert "| planar4 | pink | 3 | 4.00 | 3.00 | 3 |" in text and "| planar4 | qp | 3 | 1.00 | - | - |" in text
     plain = write_report([r for r in records if r["controller"] != "pink"], [], tmp_path)[0].read_text()
     assert "pink" not in plain and "## Preview against the `qp` baseline" in plain

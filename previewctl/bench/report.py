@@ -114,7 +114,9 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
             command = f"previewctl bench --robot {robot} --scenes {scenes[-1] + 1} --scene-seed {scene_seed}"
             latencies = sorted({_latency(r) for r in mine})
             command += f" --latency {','.join(latencies)}" if latencies != [INLINE] else ""
-            command += f" --controller {','.join(controllers)}" if set(controllers) & set(BARRIER_GAINS) else ""
+            every = set(control_params.CONTROLLER_NAMES), set(control_params.EXECUTION_MODES)  # the defaults
+            command += f" --controller {','.join(controllers)}" if set(controllers) != every[0] else ""
+            command += f" --execution {','.join(executions)}" if set(executions) != every[1] else ""
             sensings = sorted({_sensing(r) for r in mine})
             command += f" --sensing {','.join(sensings)}" if sensings != [KNOWN] else ""
             motions = sorted({r.get("motions", "constant") for r in mine})
