@@ -137,7 +137,9 @@ class ManoeuvreKalman:
         q_manoeuvre: the manoeuvring filter's ``q`` [m²/s³]: turns, stops and speed-ups.
         cruise_time: the mean time [s] an obstacle cruises before it manoeuvres.
         manoeuvre_time: the mean time [s] a manoeuvre lasts.
-        r, velocity_noise, initial_speed: as :class:`ConstantVelocityKalman`'s.
+        r: standard deviation of a position measurement [m].
+        velocity_noise: standard deviation of a velocity measurement [m/s].
+        initial_speed: standard deviation of the velocity before any velocity is known [m/s].
 
     Attributes:
         models: the two filters, ``(cruising, manoeuvring)``.
