@@ -194,9 +194,10 @@ class ManoeuvreKalman:
 
     def sigma(self, times: ArrayLike) -> Array:
         """The mixture's ``σ(τ)`` ``(T,)`` [m] at times ``(T,)`` [s] (module docstring)."""
-        mean = self.predict(times)
-        variance = sum(mu * (model.sigma(times) ** 2 + ((model.predict(times) - mean) ** 2).sum(axis=1) / 3)
-                       for mu, model in zip(self.probabilities, self.models, strict=True))
+        means = [model.predict(times) for model in self.models]
+        mean = sum(mu * m for mu, m in zip(self.probabilities, means, strict=True))
+        variance = sum(mu * (model.sigma(times) ** 2 + ((m - mean) ** 2).sum(axis=1) / 3)
+                       for mu, model, m in zip(self.probabilities, self.models, means, strict=True))
         return np.sqrt(variance)
 
 
