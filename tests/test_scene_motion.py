@@ -72,6 +72,19 @@ def test_constant_velocity_holds_before_start() -> None:
     np.testing.assert_array_equal(motion.positions(np.array([-10.0, 0.0, 2.0])), [[1, 2, 3]] * 3)
 
 
+def test_constant_velocity_started_before_the_run_is_at_its_position_at_zero() -> None:
+    velocity = np.array([0.5, -1.0, 0.25])
+    moving = ConstantVelocity([1.0, 2.0, 3.0], velocity, start_time=-4.0)
+    times = np.array([-10.0, -4.0, -1.5, 0.0, 0.7, 3.0])
+    expected = [1.0, 2.0, 3.0] + np.maximum(times, -4.0)[:, None] * velocity  # moving since -4 s, held before
+    np.testing.assert_allclose(moving.positions(times), expected, rtol=0, atol=1e-15)
+    # from t = 0 on, exactly the bits of the motion that starts at 0 (which holds before)
+    at_zero = ConstantVelocity([1.0, 2.0, 3.0], velocity)
+    after = np.linspace(0.0, 9.0, 37)
+    np.testing.assert_array_equal(moving.positions(after), at_zero.positions(after))
+    np.testing.assert_array_equal(at_zero.positions(np.array([-3.0])), [[1.0, 2.0, 3.0]])
+
+
 def test_periodic_closed_form_and_period() -> None:
     center, amplitude = np.array([0.4, 0.0, 0.3]), np.array([0.0, 0.1, 0.05])
     motion = Periodic(center, amplitude, period=4.0, phase=0.3)
@@ -487,7 +500,7 @@ def test_from_dict_errors(spec: object, fragments: list[str]) -> None:
 def test_turn_at_once_closed_form() -> None:
     motion = Turn([1.0, 2.0], [0.5, 0.0], turn_time=2.0, angle=np.pi / 2)
     np.testing.assert_allclose(motion.positions(np.array([-1.0, 1.0, 2.0, 4.0])),
-                               [[1.0, 2.0, 0.0], [1.5, 2.0, 0.0], [2.0, 2.0, 0.0], [2.0, 3.0, 0.0]], atol=1e-12)
+                               [[0.5, 2.0, 0.0], [1.5, 2.0, 0.0], [2.0, 2.0, 0.0], [2.0, 3.0, 0.0]], atol=1e-12)
     assert motion.duration == 0.0
 
 
@@ -524,6 +537,17 @@ def test_speed_change_closed_form_stop_and_speed_up() -> None:
     np.testing.assert_allclose(jump.positions(np.array([2.0, 4.0]))[:, 1], [0.4, 0.4 + 1.2])
 
 
+@pytest.mark.parametrize("motion", [
+    Turn([0.1, 0.2], [0.3, -0.1], turn_time=1.0, angle=1.2, rate=0.8),
+    SpeedChange([0.1, 0.2], [0.3, -0.1], change_time=1.0, factor=0.0, ramp_time=0.5),
+])
+def test_surprises_come_in_straight_before_zero(motion: Motion) -> None:
+    before = np.array([-5.0, -1.0, -0.25])
+    np.testing.assert_allclose(motion.positions(before), [0.1, 0.2, 0.0] + before[:, None] * [0.3, -0.1, 0.0],
+                               rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(motion.positions(np.array([0.0]))[0], [0.1, 0.2, 0.0])
+
+
 def test_speed_change_is_continuous_with_a_ramp() -> None:
     motion = SpeedChange([0.0, 0.0], [1.0, 1.0], change_time=1.0, factor=2.5, ramp_time=0.5)
     times = np.linspace(0.0, 3.0, 30001)
@@ -536,10 +560,10 @@ def test_random_walk_stays_in_its_box_and_is_smooth() -> None:
     motion = RandomWalk([0.3, 0.0], [0.2, 0.1], [0.4, 0.3], speed=0.5, seed=3, velocity=[0.2, 0.0], duration=30.0)
     times = np.linspace(-1.0, 40.0, 41001)
     path = motion.positions(times)
-    np.testing.assert_allclose(path[0], [0.3, 0.0, 0.0])
+    np.testing.assert_allclose(path[times == 0.0][0], [0.3, 0.0, 0.0])
     assert np.all(np.abs(path[:, :2] - [0.2, 0.1]) <= [0.4, 0.3])
     np.testing.assert_array_equal(path[:, 2], 0.0)
-    walking = (times >= 0.0) & (times <= 30.0)  # it holds its start before and its end after
+    walking = times <= 30.0  # it comes in with its start velocity before 0, and holds its end after 30 s
     velocity = np.diff(path[walking], axis=0) / 1e-3
     assert np.abs(velocity).max() < 5 * 0.5  # no jump: a few standard deviations of the walk's speed
     acceleration = np.diff(velocity, axis=0) / 1e-3
@@ -554,6 +578,8 @@ def test_random_walk_starts_with_its_velocity() -> None:
     dt = 1e-6
     np.testing.assert_allclose((motion.placement(dt)[0] - motion.placement(0.0)[0]) / dt, [0.2, -0.1, 0.05],
                                rtol=1e-3)
+    np.testing.assert_allclose((motion.placement(0.0)[0] - motion.placement(-dt)[0]) / dt, [0.2, -0.1, 0.05],
+                               rtol=1e-3)  # and came in with it
 
 
 def test_random_walk_replays_for_a_seed() -> None:

@@ -74,6 +74,43 @@ def test_noise_and_dropout_statistics_for_a_fixed_seed() -> None:
     np.testing.assert_array_equal([o["position"] for o in again.seen], [o["position"] for o in recorder.seen])
 
 
+def test_a_history_observes_before_the_run_what_the_motion_did_then() -> None:
+    started = ConstantVelocity([1.0, 0.5], [-0.1, 0.2], start_time=-10.0)  # already moving when the run starts
+    scene = Scene((Obstacle("ball", Sphere(0.1), started),))
+    sensor = Sensor(scene, Sensing(rate=20.0, noise=0.0, latency=0.1, history=1.0), duration=2.0, planar=True)
+    before = _delivered(sensor, 0.0)  # what a controller has at its first step
+    np.testing.assert_allclose([o["t"] for o in before.seen], np.arange(-20, -1) / 20.0)  # -1.0 ... -0.1 s (latency)
+    np.testing.assert_allclose(np.array([o["position"] for o in before.seen]),
+                               started.positions(np.arange(-20, -1) / 20.0)[:, :2])
+    later = _delivered(sensor, 10.0)
+    assert len(before.seen) + len(later.seen) == 20 + 41  # 1 s before the run, then as without a history
+    without = Sensor(scene, Sensing(rate=20.0, noise=0.0, latency=0.1), duration=2.0, planar=True)
+    assert [o["t"] for o in _delivered(without, 10.0).seen] == [o["t"] for o in later.seen][-41:]
+
+
+def test_a_controller_watching_before_the_run_starts_with_the_velocity() -> None:
+    ball = {"name": "ball", "shape": "cylinder", "radius": 0.1, "length": 0.4,
+            "motion": {"type": "constant_velocity", "position": [1.6, 1.6], "velocity": [-0.2, -0.1],
+                       "start_time": -5.0}}
+    doc = planar_doc(obstacles=[ball], controller={"name": "qp"}, timing={"duration": 2.0},
+                     sensing={"rate": 30.0, "noise": 0.005, "latency": 0.05, "predictor": "kalman", "history": 1.0})
+    scenario = scenario_from_dict(doc)
+    assert scenario.sensing is not None
+    cold = dataclasses.replace(scenario.sensing, history=0.0)
+    errors = []
+    for sensing in (scenario.sensing, cold):
+        controller = make_controller(dataclasses.replace(scenario, sensing=sensing))
+        Sensor(scenario.scene, sensing, 2.0, planar=True).deliver(controller, 0.0)
+        assert controller.observed is not None
+        controller.observed.world.advance(0.0)  # the scene the first step sees
+        world = {o.name: o for o in controller.observed.world.scene.obstacles}
+        truth = scenario.scene.obstacles[0].motion.positions(np.array([1.0]))[0]
+        errors.append(np.linalg.norm(world["ball"].motion.positions(np.array([1.0]))[0] - truth)
+                      if "ball" in world else np.inf)
+    assert errors[0] < 0.02  # 1 s ahead from its first step: 30 observations gave it the velocity
+    assert errors[1] == np.inf  # without a history it has seen nothing by its first step (the latency)
+
+
 def test_dropped_counts_only_what_was_due() -> None:
     sensor = Sensor(SCENE, Sensing(names=("ball",), rate=10.0, latency=0.5, dropout=1.0), duration=3.0, planar=True)
     assert _delivered(sensor, 3.5).seen == []

@@ -197,8 +197,9 @@ def sensing_summary(sensing: Sensing) -> str:
     predictor = sensing.new_predictor()
     noise = (f"q = {predictor.models[0].q:g} cruising, {predictor.models[1].q:g} manoeuvring"
              if isinstance(predictor, ManoeuvreKalman) else f"q = {sensing.process_noise:g}")
+    history = f", observed from {sensing.history:g} s before the start" if sensing.history else ""
     return (f"{sensing.rate:g} Hz, {sensing.noise * 1e3:g} mm noise, {sensing.latency * 1e3:g} ms latency, dropout "
-            f"{sensing.dropout:g}; predicted by {sensing.predictor}, {noise} m²/s³, margin "
+            f"{sensing.dropout:g}{history}; predicted by {sensing.predictor}, {noise} m²/s³, margin "
             f"min({sensing.margin_cap * 1e2:g} cm, {sensing.confidence:g} σ)")
 
 

@@ -207,12 +207,15 @@ class Static(_Placed):
 
 @dataclass(frozen=True, eq=False)
 class ConstantVelocity(_Placed):
-    """An obstacle moving in a straight line: ``p(t) = position + velocity (t - start_time)``.
+    """An obstacle moving in a straight line from ``start_time`` on, and still before:
+    ``p(t) = position + velocity (max(t, start_time) - t₀)`` with ``t₀ = max(start_time, 0)``.
 
-    Before ``start_time`` the obstacle stays at ``position``.
+    ``position`` is where the obstacle is when the run starts, or when it starts moving if that is later. A negative
+    ``start_time`` is an obstacle already moving when the run starts (which a sensor running before the run sees,
+    :attr:`~previewctl.sensing.options.Sensing.history`).
 
     Attributes:
-        position: Position at ``start_time``, shape (3,) [m]. Read-only.
+        position: Position at ``max(start_time, 0)``, shape (3,) [m]. Read-only.
         velocity: Velocity, shape (3,) [m/s]. Read-only.
         rotation: Rotation matrix, shape (3, 3). Read-only.
         start_time: Time the motion starts [s].
@@ -243,7 +246,7 @@ class ConstantVelocity(_Placed):
         Returns:
             Positions, shape (T, 3) [m]; a fresh array.
         """
-        elapsed = np.maximum(_times(times) - self.start_time, 0.0)
+        elapsed = np.maximum(_times(times), self.start_time) - max(self.start_time, 0.0)
         return self.position + elapsed[:, None] * self.velocity
 
 
@@ -374,12 +377,8 @@ class Periodic(_Placed):
 
 # ----------------------------------------------------------------------------- surprises
 # Motions a constant-velocity predictor does not know: the velocity turns, the speed changes (or drops to 0), or the
-# obstacle wanders. Each starts at ``position`` at ``t = 0`` and holds it before.
-
-
-def _elapsed(times: ArrayLike) -> NDArray[np.float64]:
-    """Validated times [s] clipped at 0: the motions below hold their start before ``t = 0``."""
-    return np.maximum(_times(times), 0.0)
+# obstacle wanders. Each is at ``position`` at ``t = 0`` and came there in a straight line at ``velocity``: it is
+# already moving when the run starts, as a sensor running before the run sees it (``Sensing.history``).
 
 
 def _non_negative(value: object, name: str, unit: str) -> float:
@@ -406,15 +405,15 @@ class Turn(_Placed):
     axis and ``v_⊥`` across it, the velocity ``s`` seconds into the turn is ``v_a + v_⊥ cos(ω s) + (a × v_⊥) sin(ω s)``
     for ``s <= T`` (a circular arc of radius ``|v_⊥| / |ω|``), so the position is::
 
-        p(t) = position + velocity t                                          t <= turn_time
+        p(t) = position + velocity t                                          t <= turn_time (t < 0 too)
         p(turn_time + s) = p(turn_time) + v_a s + v_⊥ sin(ω s) / ω + (a × v_⊥)(1 − cos(ω s)) / ω     s <= T
 
     and a straight line at the turned velocity after ``T``. ``rate = None`` turns at once (``T = 0``: the velocity
     jumps, the position is continuous).
 
     Attributes:
-        position: Position at ``t = 0``, shape (3,) [m]; held before. Read-only.
-        velocity: Velocity before the turn, shape (3,) [m/s]. Read-only.
+        position: Position at ``t = 0``, shape (3,) [m]. Read-only.
+        velocity: Velocity before the turn (also before ``t = 0``), shape (3,) [m/s]. Read-only.
         turn_time: When the turn starts [s], >= 0.
         angle: How far the velocity turns [rad], about ``axis`` (right-hand rule).
         rate: Turn rate [rad/s], > 0, or ``None``: at once.
@@ -462,7 +461,7 @@ class Turn(_Placed):
         Returns:
             Positions, shape (T, 3) [m]; a fresh array.
         """
-        elapsed = _elapsed(times)
+        elapsed = _times(times)
         along = self.velocity.dot(self.axis) * self.axis
         across = self.velocity - along
         side = np.cross(self.axis, across)
@@ -488,11 +487,11 @@ class SpeedChange(_Placed):
 
         p(t) = position + velocity ∫_0^t σ,   ∫ over the ramp = u + (factor − 1) u² / (2 ramp_time)
 
-    for ``u`` seconds into the ramp.
+    for ``u`` seconds into the ramp (before ``t = 0``, ``σ = 1``).
 
     Attributes:
-        position: Position at ``t = 0``, shape (3,) [m]; held before. Read-only.
-        velocity: Velocity before the change, shape (3,) [m/s]. Read-only.
+        position: Position at ``t = 0``, shape (3,) [m]. Read-only.
+        velocity: Velocity before the change (also before ``t = 0``), shape (3,) [m/s]. Read-only.
         change_time: When the change starts [s], >= 0.
         factor: Speed after the change over speed before, >= 0 (0: the obstacle stops).
         ramp_time: How long the change takes [s], >= 0 (0: at once).
@@ -528,7 +527,7 @@ class SpeedChange(_Placed):
         Returns:
             Positions, shape (T, 3) [m]; a fresh array.
         """
-        elapsed = _elapsed(times)
+        elapsed = _times(times)
         before = np.minimum(elapsed, self.change_time)
         ramp = np.clip(elapsed - self.change_time, 0.0, self.ramp_time)
         after = np.maximum(elapsed - self.change_time - self.ramp_time, 0.0)
@@ -550,9 +549,9 @@ class RandomWalk(_Placed):
     Ornstein-Uhlenbeck process sampled every ``step`` (exact discretisation: ``u_{k+1} = u_k e^{−step/τ} +
     speed √(1 − e^{−2 step/τ}) ξ_k``, ``ξ_k`` standard normal from ``np.random.default_rng(seed)``, ``τ`` the
     correlation time), linear between the samples, so ``x`` is its exact integral: positions and velocities are
-    continuous and the acceleration bounded. It starts at ``position`` with ``velocity`` and holds its start before
-    ``t = 0`` and its end after ``duration`` (rounded up to a whole step). An axis with ``half_size = 0`` stays at
-    ``center``.
+    continuous and the acceleration bounded. It is at ``position`` with ``velocity`` at ``t = 0``, came there with that
+    constant ``ẋ`` before (folded like the rest), and holds its end after ``duration`` (rounded up to a whole step).
+    An axis with ``half_size = 0`` stays at ``center``.
 
     Attributes:
         position: Start, shape (3,) [m], strictly inside the box. Read-only.
@@ -631,11 +630,14 @@ class RandomWalk(_Placed):
         Returns:
             Positions, shape (T, 3) [m]; a fresh array.
         """
-        elapsed = np.minimum(_elapsed(times), (self._walk.shape[0] - 1) * self.step)
+        at = _times(times)
+        elapsed = np.minimum(np.maximum(at, 0.0), (self._walk.shape[0] - 1) * self.step)
         k = np.minimum((elapsed // self.step).astype(np.int64), self._walk.shape[0] - 2)
         s = (elapsed - k * self.step)[:, None]
         u0, u1 = self._rates[k], self._rates[k + 1]
         walk = self._walk[k] + u0 * s + (u1 - u0) * s**2 / (2.0 * self.step)
+        before = at < 0.0
+        walk[before] += at[before, None] * self._rates[0]  # the straight line it came in on
         moving = self.half_size > 0.0
         h = np.where(moving, self.half_size, 1.0)
         return np.where(moving, self.center + h * np.sin(walk / h), self.center)

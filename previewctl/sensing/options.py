@@ -43,6 +43,9 @@ class Sensing(Checked):
         rate: the simulator's observations per obstacle per second [Hz] (:mod:`previewctl.sim.sensor`).
         noise: the standard deviation [m] of the Gaussian noise the simulator adds to each observed position.
         latency: the time [s] between an observation and its delivery to the controller in the simulator.
+        history: how long [s] before ``t = 0`` the simulator's sensor already observes (a robot's camera runs before
+            its task starts): an obstacle already moving then (its motion's own ``t < 0``) is seen moving, and the
+            controller starts with a velocity estimate; 0: observations start with the run.
         dropout: the probability that the simulator drops an observation.
         seed: the seed of the simulator's noise and dropouts.
     """
@@ -59,6 +62,7 @@ class Sensing(Checked):
     rate: Positive = 30.0
     noise: NonNegative = 0.005
     latency: NonNegative = 0.05
+    history: NonNegative = 0.0
     dropout: Probability = 0.0
     seed: Annotated[Integer, Field(ge=0)] = 0
 

@@ -1,12 +1,13 @@
 """The simulator's sensor: it observes the true motion of a scenario's observed obstacles and feeds the controller.
 
 With a scenario's ``[sensing]`` table (:class:`~previewctl.sensing.options.Sensing`), every obstacle it observes
-(:meth:`~previewctl.sensing.options.Sensing.observed`) is sampled at ``t_obs = k / rate`` [s], ``k = 0, 1, ...``,
-over the run: its true position (the only place besides the exact check where the simulator reads the true motion),
-plus Gaussian noise of standard deviation ``noise`` [m] per coordinate (x and y on a planar arm, whose observations
-have 2 entries); each sample is dropped with probability ``dropout``. The rest are delivered at ``t_obs + latency``:
-the loop calls ``controller.observe(name, position, t_obs, rotation=..., shape=...)`` for every observation due by
-a step's time, before that step (:func:`~previewctl.sim.loop.simulate`). The noise and the dropouts are drawn from
+(:meth:`~previewctl.sensing.options.Sensing.observed`) is sampled at ``t_obs = k / rate`` [s] over the run, from
+``k = −⌊history · rate⌋`` (``history``: how long the sensor already runs before ``t = 0``): its true position (the
+only place besides the exact check where the simulator reads the true motion), plus Gaussian noise of standard
+deviation ``noise`` [m] per coordinate (x and y on a planar arm, whose observations have 2 entries); each sample is
+dropped with probability ``dropout``. The rest are delivered at ``t_obs + latency``: the loop calls
+``controller.observe(name, position, t_obs, rotation=..., shape=...)`` for every observation due by a step's time,
+before that step (:func:`~previewctl.sim.loop.simulate`). The noise and the dropouts are drawn from
 ``np.random.default_rng(seed)`` when the sensor is made, obstacle by obstacle in scene order, so a run replays.
 """
 
@@ -49,7 +50,7 @@ class Sensor:
     Args:
         scene: the scenario's scene, with the true motions.
         sensing: which obstacles are observed, and ``rate``, ``noise``, ``latency``, ``dropout``, ``seed``.
-        duration: how long the run lasts [s]: observations are made over ``[0, duration]``.
+        duration: how long the run lasts [s]: observations are made over ``[−history, duration]``.
         planar: whether the arm is planar (observations of 2 entries).
 
     Attributes:
@@ -58,7 +59,8 @@ class Sensor:
 
     def __init__(self, scene: Scene, sensing: Sensing, duration: float, planar: bool) -> None:
         rng = np.random.default_rng(sensing.seed)
-        times = np.arange(math.floor(duration * sensing.rate + DUE_SLACK) + 1) / sensing.rate
+        first = -math.floor(sensing.history * sensing.rate + DUE_SLACK)
+        times = np.arange(first, math.floor(duration * sensing.rate + DUE_SLACK) + 1) / sensing.rate
         dims = 2 if planar else 3
         observed = set(sensing.observed(scene))
         queue: list[Observation] = []
