@@ -80,6 +80,11 @@ def available_cores() -> int:
     return os.cpu_count() or 1
 
 
+def _loop_core(cores: set[int]) -> int:
+    """The core left to the loop among ``cores`` (those the process may run on): the lowest-numbered."""
+    return min(cores)
+
+
 def worker_cores() -> frozenset[int] | None:
     """The cores the workers may run on so as to leave the loop one: all this process may run on but the
     lowest-numbered; for a loop pinned to one core (``os.sched_setaffinity``), every other core of the machine.
@@ -87,7 +92,7 @@ def worker_cores() -> frozenset[int] | None:
     if not hasattr(os, "sched_getaffinity"):
         return None
     loop = os.sched_getaffinity(0)
-    others = loop - {min(loop)} if len(loop) >= 2 else set(range(os.cpu_count() or 1)) - loop
+    others = loop - {_loop_core(loop)} if len(loop) >= 2 else set(range(os.cpu_count() or 1)) - loop
     return frozenset(others) or None
 
 
@@ -99,7 +104,7 @@ def on_the_loop_core() -> Iterator[None]:
     if not hasattr(os, "sched_getaffinity") or len(before := os.sched_getaffinity(0)) < 2:
         yield
         return
-    os.sched_setaffinity(0, {min(before)})
+    os.sched_setaffinity(0, {_loop_core(before)})
     try:
         yield
     finally:
