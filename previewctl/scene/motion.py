@@ -207,7 +207,7 @@ class Static(_Placed):
 
 @dataclass(frozen=True, eq=False)
 class ConstantVelocity(_Placed):
-    """An obstacle moving in a straight line from ``start_time`` on, and still before:
+    """An obstacle moving in a straight line from ``start_time`` on, held at its start before:
     ``p(t) = position + velocity (max(t, start_time) - t₀)`` with ``t₀ = max(start_time, 0)``.
 
     ``position`` is where the obstacle is when the run starts, or when it starts moving if that is later. A negative
