@@ -15,7 +15,7 @@ imaginary arm that the searches ran per camera frame, from the first measured cy
 worker's errors. On a shared host the worker competes with everything else; these are not timed tests.
 
 Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]
-[--pin-loop] [--no-loop-core]``.
+[--pin-loop] [--no-loop-core] [--fifo]``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions, BackgroundPlanning, on_the_loop_core
+from previewctl.control.background import BackgroundOptions, BackgroundPlanning, on_the_loop_core, realtime_priority
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -36,10 +36,11 @@ DT = 0.004  # [s]
 SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
-def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None, loop_core: bool = True) -> str:
+def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None, loop_core: bool = True,
+            fifo: bool = False) -> str:
     """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``; its searches
     and plans in two workers if ``apart``, one if not, the machine's default if ``None``; the workers kept off the
-    loop's core if ``loop_core``); a line of its numbers."""
+    loop's core if ``loop_core``; the loop in the real-time class if ``fifo``); a line of its numbers."""
     robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, cpu, ages, fallbacks, errors = [], [], [], 0, set()
@@ -48,7 +49,7 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
     options = options if apart is None else replace(options, plans_apart=apart)
     kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
                                {"name": "multi", "planning": "background", "background": options})
-    with pc.make_controller(scenario, **kind) as ctrl:
+    with pc.make_controller(scenario, **kind) as ctrl, realtime_priority() if fifo else contextlib.nullcontext():
         k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
         first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last
         while warm is None or k - warm < cycles:
@@ -111,6 +112,9 @@ def main() -> None:
                              "(background.on_the_loop_core)")
     parser.add_argument("--no-loop-core", action="store_true",
                         help="let the workers run on every core, the loop's included (BackgroundOptions.loop_core)")
+    parser.add_argument("--fifo", action="store_true",
+                        help="run the loop in the real-time class once the workers have started, as `previewctl run "
+                             "--realtime` does (background.realtime_priority; needs CAP_SYS_NICE)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
@@ -123,7 +127,7 @@ def main() -> None:
                 scenario = replace(scenario, controller=replace(scenario.controller, params=params))
             for mode in args.modes:
                 line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2,
-                               not args.no_loop_core)
+                               not args.no_loop_core, args.fifo)
                 print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 

@@ -25,7 +25,15 @@ from helpers import interruptible
 from numpy.typing import NDArray
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions, PlanningResult, PlanningSide, answer, worker_cores
+from previewctl.control.background import (
+    LOOP_PRIORITY,
+    BackgroundOptions,
+    PlanningResult,
+    PlanningSide,
+    answer,
+    realtime_priority,
+    worker_cores,
+)
 from previewctl.control.planner import PlanTiming, WindowPlanner
 from previewctl.index.evaluator import Evaluator
 from previewctl.robot.model import Robot
@@ -352,6 +360,33 @@ def test_without_a_loop_core_the_worker_runs_on_the_loops_cores() -> None:
         assert os.sched_getaffinity(ctrl.planning.worker.pid) == os.sched_getaffinity(0)  # type: ignore[union-attr]
     with stand_in_controller() as ctrl:
         assert os.sched_getaffinity(ctrl.planning.worker.pid) == worker_cores()  # type: ignore[union-attr]
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="Linux scheduling classes")
+def test_a_real_time_priority_is_the_threads_alone_and_undone_after() -> None:
+    before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    child = [sys.executable, "-c", "import os; print(os.sched_getscheduler(0))"]
+    with realtime_priority() as granted:
+        inside = (os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK, os.sched_getparam(0).sched_priority)
+        started = int(subprocess.run(child, capture_output=True, text=True, check=True).stdout)
+    assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+    if granted:  # root, CAP_SYS_NICE or an rtprio limit
+        assert inside == (os.SCHED_FIFO, LOOP_PRIORITY)
+        assert started == os.SCHED_OTHER  # a worker started meanwhile runs in the ordinary class
+    else:
+        assert inside == before
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="Linux scheduling classes")
+def test_a_refused_real_time_priority_changes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(pid: int, policy: int, param: object) -> None:
+        raise PermissionError(1, "Operation not permitted")
+
+    before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    with realtime_priority() as granted:
+        assert not granted
+        assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
 
 
 @pytest.mark.parametrize(("cores", "apart"), [(1, False), (2, False), (3, False), (4, True), (16, True)])

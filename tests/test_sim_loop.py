@@ -23,7 +23,7 @@ from helpers import interruptible, planar_doc, tiny_planar_toml
 
 from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
-from previewctl.control.background import BackgroundOptions
+from previewctl.control.background import BackgroundOptions, realtime_priority
 from previewctl.control.factory import make_controller
 from previewctl.control.params import ControllerSpec
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
@@ -483,12 +483,22 @@ def test_a_real_time_run_waits_for_the_wall_clock_and_plans_in_the_background() 
                     reason="CPU affinity on two cores or more")
 def test_a_real_time_loop_runs_on_the_core_its_workers_leave_free() -> None:
     scenario = scenario_from_dict(planar_doc(controller={"name": "multi"}, timing={"duration": 0.2}))
-    before, seen = os.sched_getaffinity(0), []
+    before, seen, policies = os.sched_getaffinity(0), [], set()
+    policy = os.sched_getscheduler(0)
+
+    def record(*_: object) -> None:
+        seen.append(os.sched_getaffinity(0))
+        policies.add(os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK)
+
     with make_controller(scenario, dt=0.01, planning="background") as ctrl:
         workers = os.sched_getaffinity(ctrl.planning.worker.pid)  # type: ignore[union-attr]
-        simulate(scenario, controller=ctrl, rate=100.0, progress=lambda *_: seen.append(os.sched_getaffinity(0)))
+        simulate(scenario, controller=ctrl, rate=100.0, progress=record)
     assert seen and all(cores == {min(before)} for cores in seen) and not workers & {min(before)}
     assert os.sched_getaffinity(0) == before  # restored once the run ended
+    with realtime_priority() as granted:
+        pass
+    assert policies == ({os.SCHED_FIFO} if granted else {policy})  # the real-time class when the OS grants it
+    assert os.sched_getscheduler(0) == policy
 
 
 def test_a_controller_with_nothing_to_plan_runs_inline_at_real_time() -> None:

@@ -111,6 +111,42 @@ def on_the_loop_core() -> Iterator[None]:
         os.sched_setaffinity(0, before)
 
 
+LOOP_PRIORITY = 50
+"""The real-time priority (``SCHED_FIFO``, 1-99) :func:`realtime_priority` asks for: mid-range, as ``ros2_control``'s
+control loop does, below the kernel's own real-time threads."""
+
+
+@contextlib.contextmanager
+def realtime_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
+    """Run the calling thread in Linux's real-time class (``SCHED_FIFO`` at ``priority``), where no ordinary process
+    preempts it, then restore its policy; a process it starts meanwhile (a worker) starts in the ordinary class
+    (``SCHED_RESET_ON_FORK``). Yields whether the OS granted it: without the permission (``CAP_SYS_NICE``, or an
+    ``rtprio`` limit in ``/etc/security/limits.conf``) or off Linux, the thread runs as before. The loop sleeps to
+    each deadline, so it leaves the core between cycles (docs/speed.md, "A real-time priority for the loop")."""
+    if not hasattr(os, "sched_setscheduler"):
+        yield False
+        return
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, os.sched_param(priority))
+    except OSError:
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        os.sched_setscheduler(0, policy, param)
+
+
+@contextlib.contextmanager
+def real_time_loop() -> Iterator[bool]:
+    """The calling thread as a real-time loop beside its workers, until the context ends: on the core they leave
+    free (:func:`on_the_loop_core`), in the real-time class if the OS grants it (:func:`realtime_priority`, whose
+    answer it yields)."""
+    with on_the_loop_core(), realtime_priority() as granted:
+        yield granted
+
+
 @dataclass(frozen=True)
 class BackgroundOptions(Checked):
     """How long the worker's results stay valid, and how the worker runs.

@@ -9,7 +9,7 @@ from types import FrameType
 
 import numpy as np
 
-from previewctl.control.background import on_the_loop_core
+from previewctl.control.background import real_time_loop
 from previewctl.extras import require
 from previewctl.ros.environment import loopback_environment
 
@@ -58,7 +58,10 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
             angles = setup.robot.angles_of(np.asarray(q0, dtype=float)[None])[0]
             executor.add_node(FakeRobot(node.joint_names, angles.tolist(), 4 * node.settings.rate,
                                         node.settings.commands_topic, node.settings.joint_states_topic))
-        with on_the_loop_core():  # the node's loop on the core its planning workers leave free
+        with real_time_loop() as granted:  # the node's loop on the core its workers leave free, real-time class
+            if not granted:
+                node.get_logger().warning("the control loop runs in the ordinary scheduling class: the OS refused "
+                                          "SCHED_FIFO (it needs CAP_SYS_NICE or an rtprio limit)")
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

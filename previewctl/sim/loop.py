@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.control.background import on_the_loop_core
+from previewctl.control.background import real_time_loop
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
 from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
@@ -95,8 +95,9 @@ def simulate(
             controller made here plans in the background if it can (``single``, ``multi``, ``reach``, ``horizon``,
             ``oracle``; the others have nothing to plan and run inline); it is closed when the run ends, also on
             Ctrl-C. The clock starts once the planning worker has answered the start state (a robot holds still
-            until its planner is ready), or failed. The loop runs on the core the workers leave free
-            (:func:`~previewctl.control.background.on_the_loop_core`) until the run ends. Default: simulated time,
+            until its planner is ready), or failed. The loop runs on the core the workers leave free, in the
+            real-time class if the OS grants it (:func:`~previewctl.control.background.real_time_loop`; a warning
+            is logged if not), until the run ends. Default: simulated time,
             the scenario's ``dt``, inline planning (deterministic).
 
     Returns:
@@ -133,7 +134,10 @@ def simulate(
         if rate is not None:
             _wait_for_planning(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
-        with contextlib.nullcontext() if rate is None else on_the_loop_core():
+        with contextlib.nullcontext(True) if rate is None else real_time_loop() as granted:
+            if not granted:
+                _log.warning("the loop runs in the ordinary scheduling class: the OS refused SCHED_FIFO (it needs "
+                             "CAP_SYS_NICE or an rtprio limit), so other processes may delay its cycles")
             count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
