@@ -362,7 +362,7 @@ def test_without_a_loop_core_the_worker_runs_on_the_loops_cores() -> None:
         assert os.sched_getaffinity(ctrl.planning.worker.pid) == worker_cores()  # type: ignore[union-attr]
 
 
-@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="Linux scheduling classes")
+@pytest.mark.skipif(not hasattr(os, "SCHED_RESET_ON_FORK"), reason="Linux scheduling classes")
 def test_a_real_time_priority_is_the_threads_alone_and_undone_after() -> None:
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     child = [sys.executable, "-c", "import os; print(os.sched_getscheduler(0))"]
@@ -377,7 +377,7 @@ def test_a_real_time_priority_is_the_threads_alone_and_undone_after() -> None:
         assert inside == before
 
 
-@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="Linux scheduling classes")
+@pytest.mark.skipif(not hasattr(os, "SCHED_RESET_ON_FORK"), reason="Linux scheduling classes")
 def test_a_refused_real_time_priority_changes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     def refuse(pid: int, policy: int, param: object) -> None:
         raise PermissionError(1, "Operation not permitted")

@@ -123,7 +123,7 @@ def realtime_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
     (``SCHED_RESET_ON_FORK``). Yields whether the OS granted it: without the permission (``CAP_SYS_NICE``, or an
     ``rtprio`` limit in ``/etc/security/limits.conf``) or off Linux, the thread runs as before. The loop sleeps to
     each deadline, so it leaves the core between cycles (docs/speed.md, "A real-time priority for the loop")."""
-    if not hasattr(os, "sched_setscheduler"):
+    if not hasattr(os, "SCHED_RESET_ON_FORK"):  # Linux's: elsewhere a worker would inherit the class
         yield False
         return
     policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
