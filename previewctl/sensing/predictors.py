@@ -35,6 +35,7 @@ A predictor must be picklable (with background planning its state is sent to the
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -188,17 +189,20 @@ class ManoeuvreKalman:
             model.x, model.v, model.P = mean[0], mean[1], P
         self.probabilities = prior
 
+    def _mixed(self, parts: Iterable[Array]) -> Array:
+        """``Σ_j μ_j part_j``: the mixture of one value per model, in the models' order."""
+        return sum(mu * part for mu, part in zip(self.probabilities, parts, strict=True))
+
     def predict(self, times: ArrayLike) -> Array:
         """``Σ_j μ_j (x_j + v_j τ)`` ``(T, 3)`` [m] at times ``(T,)`` [s]."""
-        return sum(mu * model.predict(times) for mu, model in zip(self.probabilities, self.models, strict=True))
+        return self._mixed(model.predict(times) for model in self.models)
 
     def sigma(self, times: ArrayLike) -> Array:
         """The mixture's ``σ(τ)`` ``(T,)`` [m] at times ``(T,)`` [s] (module docstring)."""
         means = [model.predict(times) for model in self.models]
-        mean = sum(mu * m for mu, m in zip(self.probabilities, means, strict=True))
-        variance = sum(mu * (model.sigma(times) ** 2 + ((m - mean) ** 2).sum(axis=1) / 3)
-                       for mu, model, m in zip(self.probabilities, self.models, means, strict=True))
-        return np.sqrt(variance)
+        mean = self._mixed(means)
+        return np.sqrt(self._mixed(model.sigma(times) ** 2 + ((m - mean) ** 2).sum(axis=1) / 3
+                                   for model, m in zip(self.models, means, strict=True)))
 
 
 class Stationary:
