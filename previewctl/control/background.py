@@ -138,6 +138,11 @@ def realtime_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
         os.sched_setscheduler(0, policy, param)
 
 
+REFUSED = ("the loop runs in the ordinary scheduling class: the OS refused SCHED_FIFO (it needs CAP_SYS_NICE or an "
+           "rtprio limit), so other processes may delay its cycles")
+"""What a loop says when :func:`real_time_loop` was not granted the real-time class."""
+
+
 @contextlib.contextmanager
 def real_time_loop() -> Iterator[bool]:
     """The calling thread as a real-time loop beside its workers, until the context ends: on the core they leave

@@ -9,7 +9,7 @@ from types import FrameType
 
 import numpy as np
 
-from previewctl.control.background import real_time_loop
+from previewctl.control.background import REFUSED, real_time_loop
 from previewctl.extras import require
 from previewctl.ros.environment import loopback_environment
 
@@ -60,8 +60,7 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
                                         node.settings.commands_topic, node.settings.joint_states_topic))
         with real_time_loop() as granted:  # the node's loop on the core its workers leave free, real-time class
             if not granted:
-                node.get_logger().warning("the control loop runs in the ordinary scheduling class: the OS refused "
-                                          "SCHED_FIFO (it needs CAP_SYS_NICE or an rtprio limit)")
+                node.get_logger().warning(REFUSED)
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.control.background import real_time_loop
+from previewctl.control.background import REFUSED, real_time_loop
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
 from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
@@ -136,8 +136,7 @@ def simulate(
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
         with contextlib.nullcontext(True) if rate is None else real_time_loop() as granted:
             if not granted:
-                _log.warning("the loop runs in the ordinary scheduling class: the OS refused SCHED_FIFO (it needs "
-                             "CAP_SYS_NICE or an rtprio limit), so other processes may delay its cycles")
+                _log.warning(REFUSED)
             count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
