@@ -15,7 +15,7 @@ imaginary arm that the searches ran per camera frame, from the first measured cy
 worker's errors. On a shared host the worker competes with everything else; these are not timed tests.
 
 Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]
-[--pin-loop] [--no-loop-core] [--fifo]``.
+[--pin-loop] [--no-loop-core] [--fifo] [--awake]``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,13 @@ from dataclasses import replace
 import numpy as np
 
 import previewctl as pc
-from previewctl.control.background import BackgroundOptions, BackgroundPlanning, on_the_loop_core, realtime_priority
+from previewctl.control.background import (
+    BackgroundOptions,
+    BackgroundPlanning,
+    on_the_loop_core,
+    prompt_wake_up,
+    realtime_priority,
+)
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -37,10 +43,11 @@ SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
 def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None, loop_core: bool = True,
-            fifo: bool = False) -> str:
+            fifo: bool = False, awake: bool = False) -> str:
     """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``; its searches
     and plans in two workers if ``apart``, one if not, the machine's default if ``None``; the workers kept off the
-    loop's core if ``loop_core``; the loop in the real-time class if ``fifo``); a line of its numbers."""
+    loop's core if ``loop_core``; the loop in the real-time class if ``fifo``; the cores kept out of deep idle states if
+    ``awake``); a line of its numbers."""
     robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, cpu, ages, fallbacks, errors = [], [], [], 0, set()
@@ -49,7 +56,8 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
     options = options if apart is None else replace(options, plans_apart=apart)
     kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
                                {"name": "multi", "planning": "background", "background": options})
-    with pc.make_controller(scenario, **kind) as ctrl, realtime_priority() if fifo else contextlib.nullcontext():
+    with (pc.make_controller(scenario, **kind) as ctrl, realtime_priority() if fifo else contextlib.nullcontext(),
+          prompt_wake_up() if awake else contextlib.nullcontext()):
         k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
         first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last
         while warm is None or k - warm < cycles:
@@ -115,6 +123,9 @@ def main() -> None:
     parser.add_argument("--fifo", action="store_true",
                         help="run the loop in the real-time class once the workers have started, as `previewctl run "
                              "--realtime` does (background.realtime_priority; needs CAP_SYS_NICE)")
+    parser.add_argument("--awake", action="store_true",
+                        help="keep the cores out of deep idle states while the loop runs, as `previewctl run "
+                             "--realtime` does (background.prompt_wake_up; needs root)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
@@ -127,7 +138,7 @@ def main() -> None:
                 scenario = replace(scenario, controller=replace(scenario.controller, params=params))
             for mode in args.modes:
                 line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2,
-                               not args.no_loop_core, args.fifo)
+                               not args.no_loop_core, args.fifo, args.awake)
                 print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 

@@ -26,11 +26,16 @@ from numpy.typing import NDArray
 
 import previewctl as pc
 from previewctl.control.background import (
+    FIFO_REFUSED,
     LOOP_PRIORITY,
+    WAKE_LATENCY_FILE,
+    WAKE_REFUSED,
     BackgroundOptions,
     PlanningResult,
     PlanningSide,
+    RealTimeGrants,
     answer,
+    prompt_wake_up,
     realtime_priority,
     worker_cores,
 )
@@ -387,6 +392,42 @@ def test_a_refused_real_time_priority_changes_nothing(monkeypatch: pytest.Monkey
     with realtime_priority() as granted:
         assert not granted
         assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+
+
+def _open_files() -> set[str]:
+    """The paths this process holds open."""
+    return {os.path.realpath(fd) for fd in Path("/proc/self/fd").iterdir() if fd.exists()}
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="Linux's /proc")
+def test_the_wake_up_request_is_written_and_held_open_until_the_context_ends(tmp_path: Path) -> None:
+    request = tmp_path / "cpu_dma_latency"
+    request.write_bytes(b"")
+    with prompt_wake_up(str(request)) as awake:
+        assert awake
+        assert str(request.resolve()) in _open_files()  # the request holds while the file is open
+        assert request.read_bytes() == (0).to_bytes(4, sys.byteorder)  # an int32 of 0 µs, in the CPU's own order
+    assert str(request.resolve()) not in _open_files()
+
+
+def test_a_refused_wake_up_request_is_said(tmp_path: Path) -> None:
+    with prompt_wake_up(str(tmp_path / "missing" / "cpu_dma_latency")) as awake:
+        assert not awake
+
+
+@pytest.mark.skipif(not Path(WAKE_LATENCY_FILE).exists(), reason="Linux's PM QoS")
+def test_the_cpus_wake_up_latency_is_zero_inside_when_granted() -> None:
+    with prompt_wake_up() as awake:
+        if awake:  # root: the kernel's aggregated request, read back from the device, is 0 µs
+            with open(WAKE_LATENCY_FILE, "rb") as device:
+                assert int.from_bytes(device.read(4), sys.byteorder) == 0
+
+
+@pytest.mark.parametrize(("fifo", "awake"), [(True, True), (False, True), (True, False), (False, False)])
+def test_a_real_time_loop_says_each_refusal(fifo: bool, awake: bool) -> None:
+    refusals = RealTimeGrants(fifo=fifo, awake=awake).refusals
+    assert (FIFO_REFUSED in refusals) is not fifo and (WAKE_REFUSED in refusals) is not awake
+    assert len(refusals) == (not fifo) + (not awake)
 
 
 @pytest.mark.parametrize(("cores", "apart"), [(1, False), (2, False), (3, False), (4, True), (16, True)])

@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import multiprocessing
 import os
 import re
@@ -21,9 +23,10 @@ import pinocchio as pin
 import pytest
 from helpers import interruptible, planar_doc, tiny_planar_toml
 
+import previewctl.control.background as background
 from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
-from previewctl.control.background import BackgroundOptions, realtime_priority
+from previewctl.control.background import WAKE_REFUSED, BackgroundOptions, realtime_priority
 from previewctl.control.factory import make_controller
 from previewctl.control.params import ControllerSpec
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
@@ -510,6 +513,19 @@ def test_a_controller_with_nothing_to_plan_runs_inline_at_real_time() -> None:
     summary = run.summary()
     sane_timing(summary)
     assert summary["plan_age_p95"] is None and summary["fallback_fraction"] == 0.0
+
+
+def test_a_real_time_run_warns_when_the_cores_may_not_be_kept_awake(monkeypatch: pytest.MonkeyPatch,
+                                                                      caplog: pytest.LogCaptureFixture) -> None:
+    monkeypatch.setattr(background, "prompt_wake_up", lambda: contextlib.nullcontext(False))
+    scenario = scenario_from_dict(planar_doc(controller={"name": "qp"}, timing={"duration": 0.1}))
+    with caplog.at_level(logging.WARNING, logger="previewctl"):
+        simulate(scenario, rate=50.0)
+    assert WAKE_REFUSED in caplog.messages
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="previewctl"):
+        simulate(scenario)  # simulated time: no real-time loop, nothing to warn about
+    assert WAKE_REFUSED not in caplog.messages
 
 
 @pytest.mark.parametrize("rate", [0.0, -250.0, float("nan"), "fast"])

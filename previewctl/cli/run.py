@@ -61,8 +61,9 @@ def add_parser(commands: Commands) -> None:
                      "sleeping to its deadline (an overrun is counted as a deadline miss, not caught up), and the "
                      "searches and planner run in a worker process beside the loop ('none', 'qp' and 'gradient' "
                      "have nothing to plan and run inline), the loop on a core of its own (the lowest), the worker on "
-                     "the others, and the loop in Linux's real-time class (SCHED_FIFO) when the OS grants it (root or "
-                     "CAP_SYS_NICE; a warning says when not); not reproducible. Ctrl-C ends the worker too (exit 130)")
+                     "the others, the loop in Linux's real-time class (SCHED_FIFO) and the cores kept out of deep idle "
+                     "states (/dev/cpu_dma_latency) when the OS grants them (root, or CAP_SYS_NICE for the first; a "
+                     "warning says which it refused); not reproducible. Ctrl-C ends the worker too (exit 130)")
     run.add_argument("--rate", type=rate_value, metavar="HZ",
                      help=f"loop rate of --realtime [Hz] (default {DEFAULT_RATE:g}; the control period is 1/rate, "
                      "not the scenario's dt)")

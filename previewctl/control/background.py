@@ -43,6 +43,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import struct
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -138,18 +139,67 @@ def realtime_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
         os.sched_setscheduler(0, policy, param)
 
 
-REFUSED = ("the loop runs in the ordinary scheduling class: the OS refused SCHED_FIFO (it needs CAP_SYS_NICE or an "
-           "rtprio limit), so other processes may delay its cycles")
-"""What a loop says when :func:`real_time_loop` was not granted the real-time class."""
+WAKE_LATENCY_FILE = "/dev/cpu_dma_latency"
+"""Linux's PM QoS request for the CPUs' wake-up latency: an int32 [µs] written to it holds while the file is open."""
 
 
 @contextlib.contextmanager
-def real_time_loop() -> Iterator[bool]:
-    """The calling thread as a real-time loop beside its workers, until the context ends: on the core they leave
-    free (:func:`on_the_loop_core`), in the real-time class if the OS grants it (:func:`realtime_priority`, whose
-    answer it yields)."""
-    with on_the_loop_core(), realtime_priority() as granted:
+def prompt_wake_up(path: str = WAKE_LATENCY_FILE) -> Iterator[bool]:
+    """Keep every core out of its deep idle states until the context ends: a PM QoS request for a 0 µs wake-up
+    latency, written to ``path`` and held open, as ``cyclictest`` does. A loop that sleeps to each deadline then finds
+    its core polling instead of halted (on a virtual machine, handed back to the hypervisor): on
+    the 2-core host of docs/speed.md it lowered the step's p99 and the missed deadlines in every round measured ("Cores
+    kept awake"). The idle cores poll meanwhile, which costs their power. Yields whether the OS took the request: the
+    file is root's (mode 600), and there is none off Linux."""
+    try:
+        fd = os.open(path, os.O_WRONLY)
+    except OSError:
+        yield False
+        return
+    try:
+        granted = os.write(fd, struct.pack("i", 0)) == 4
+    except OSError:
+        granted = False
+    try:
         yield granted
+    finally:
+        os.close(fd)
+
+
+FIFO_REFUSED = ("the loop runs in the ordinary scheduling class: the OS refused SCHED_FIFO (it needs CAP_SYS_NICE or "
+                "an rtprio limit), so other processes may delay its cycles")
+"""What a loop says when :func:`real_time_loop` was not granted the real-time class."""
+
+WAKE_REFUSED = (f"the cores may sleep deeply between the loop's cycles: the OS refused the request for a 0 µs wake-up "
+                f"latency ({WAKE_LATENCY_FILE} is root's), so each cycle may start on a cold core")
+"""What a loop says when :func:`real_time_loop` could not keep the cores awake."""
+
+
+@dataclass(frozen=True)
+class RealTimeGrants:
+    """What the OS granted a :func:`real_time_loop`.
+
+    Attributes:
+        fifo: the real-time class (:func:`realtime_priority`).
+        awake: the cores kept out of deep idle states (:func:`prompt_wake_up`).
+    """
+
+    fifo: bool
+    awake: bool
+
+    @property
+    def refusals(self) -> tuple[str, ...]:
+        """A warning per request the OS refused."""
+        return (() if self.fifo else (FIFO_REFUSED,)) + (() if self.awake else (WAKE_REFUSED,))
+
+
+@contextlib.contextmanager
+def real_time_loop() -> Iterator[RealTimeGrants]:
+    """The calling thread as a real-time loop beside its workers, until the context ends: on the core they leave
+    free (:func:`on_the_loop_core`), in the real-time class (:func:`realtime_priority`) and with the cores kept awake
+    (:func:`prompt_wake_up`) if the OS grants them (it yields what it granted)."""
+    with on_the_loop_core(), realtime_priority() as fifo, prompt_wake_up() as awake:
+        yield RealTimeGrants(fifo=fifo, awake=awake)
 
 
 @dataclass(frozen=True)

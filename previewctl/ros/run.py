@@ -9,7 +9,7 @@ from types import FrameType
 
 import numpy as np
 
-from previewctl.control.background import REFUSED, real_time_loop
+from previewctl.control.background import real_time_loop
 from previewctl.extras import require
 from previewctl.ros.environment import loopback_environment
 
@@ -59,8 +59,8 @@ def spin(params_file: str | None, ros_args: Sequence[str] = (), *, loopback: int
             executor.add_node(FakeRobot(node.joint_names, angles.tolist(), 4 * node.settings.rate,
                                         node.settings.commands_topic, node.settings.joint_states_topic))
         with real_time_loop() as granted:  # the node's loop on the core its workers leave free, real-time class
-            if not granted:
-                node.get_logger().warning(REFUSED)
+            for refusal in granted.refusals:
+                node.get_logger().warning(refusal)
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.control.background import REFUSED, real_time_loop
+from previewctl.control.background import RealTimeGrants, real_time_loop
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
 from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
@@ -134,9 +134,9 @@ def simulate(
         if rate is not None:
             _wait_for_planning(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
-        with contextlib.nullcontext(True) if rate is None else real_time_loop() as granted:
-            if not granted:
-                _log.warning(REFUSED)
+        with contextlib.nullcontext(RealTimeGrants(True, True)) if rate is None else real_time_loop() as granted:
+            for refusal in granted.refusals:
+                _log.warning(refusal)
             count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
         if owned:  # ends a background worker, also on Ctrl-C
