@@ -515,6 +515,24 @@ def test_a_controller_with_nothing_to_plan_runs_inline_at_real_time() -> None:
     assert summary["plan_age_p95"] is None and summary["fallback_fraction"] == 0.0
 
 
+def test_an_inline_real_time_run_steps_once_before_its_clock_starts() -> None:
+    """The first step loads the compiled kernels: it is taken at the start state, not logged, before the first tick."""
+    scenario = scenario_from_dict(planar_doc(controller={"name": "qp"}, timing={"duration": 0.1}))
+    controller = make_controller(scenario, dt=0.02)
+    calls: list[tuple[Any, float]] = []
+    step = controller.step
+
+    def recorded(q: Any, t: float, dt: float | None = None) -> Any:
+        calls.append((np.array(q), t))
+        return step(q, t, dt)
+
+    controller.step = recorded  # type: ignore[method-assign]
+    run = simulate(scenario, controller=controller, rate=50.0)
+    assert len(calls) == run.t.size + 1  # a step per tick, and one before them
+    assert all(t == 0.0 and np.array_equal(q, scenario.q0) for q, t in calls[:2])
+    assert [t for _, t in calls[1:]] == pytest.approx(run.t.tolist(), abs=0.0)
+
+
 def test_a_real_time_run_warns_when_the_cores_may_not_be_kept_awake(monkeypatch: pytest.MonkeyPatch,
                                                                       caplog: pytest.LogCaptureFixture) -> None:
     monkeypatch.setattr(background, "prompt_wake_up", lambda: contextlib.nullcontext(False))

@@ -94,8 +94,9 @@ def simulate(
             is not used): the arm advances in wall-clock time (:func:`~previewctl.sim.clock.wall_ticks`), and the
             controller made here plans in the background if it can (``single``, ``multi``, ``reach``, ``horizon``,
             ``oracle``; the others have nothing to plan and run inline); it is closed when the run ends, also on
-            Ctrl-C. The clock starts once the planning worker has answered the start state (a robot holds still
-            until its planner is ready), or failed. The loop runs on the core the workers leave free, in the
+            Ctrl-C. The clock starts once the controller has stepped at the start state (its first step loads the
+            compiled kernels) and its planning worker, if any, has answered it (a robot holds still until its
+            planner is ready), or failed. The loop runs on the core the workers leave free, in the
             real-time class if the OS grants it (:func:`~previewctl.control.background.real_time_loop`; a warning
             is logged if not), until the run ends. Default: simulated time,
             the scenario's ``dt``, inline planning (deterministic).
@@ -132,7 +133,7 @@ def simulate(
                                                           robot.task == "planar")
     try:
         if rate is not None:
-            _wait_for_planning(controller, scenario.q0, dt)
+            _get_ready(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
         with contextlib.nullcontext(RealTimeGrants(True, True)) if rate is None else real_time_loop() as granted:
             for refusal in granted.refusals:
@@ -159,17 +160,19 @@ def simulate(
     )
 
 
-def _wait_for_planning(controller: Controller, q0: Array, dt: float) -> None:
-    """Before a real-time run, as a robot holds still until its planner is ready: step ``controller`` at the start
-    (``q0``, ``t = 0``, not logged) every ``dt`` [s] until its background worker's first result arrives, or the
-    worker fails (its start counts against its timeout); at once with inline planning."""
+def _get_ready(controller: Controller, q0: Array, dt: float) -> None:
+    """Before a real-time run, as a robot holds still until its controller is ready: step ``controller`` at the start
+    (``q0``, ``t = 0``, not logged) once, and with background planning every ``dt`` [s] until its worker's first
+    result arrives or the worker fails (its start counts against its timeout). The first step loads the compiled
+    kernels and, inline, runs the first search and plan; no cycle on the clock should pay for them (the ROS node
+    does the same)."""
     start = time.perf_counter()
-    while controller.planning is not None:
-        controller.step(q0, 0.0, dt)
-        if controller.last_info.plan_age is not None or controller.last_info.worker_error is not None:
-            break
+    controller.step(q0, 0.0, dt)
+    while controller.planning is not None and controller.last_info.plan_age is None \
+            and controller.last_info.worker_error is None:
         time.sleep(dt)
-    _log.info("planning ready after %.2f s", time.perf_counter() - start)
+        controller.step(q0, 0.0, dt)
+    _log.info("controller ready after %.2f s", time.perf_counter() - start)
 
 
 def positive_rate(rate: object) -> float:
