@@ -33,7 +33,7 @@ from previewctl.control.background import (
     BackgroundPlanning,
     on_the_loop_core,
     prompt_wake_up,
-    realtime_priority,
+    real_time_priority,
 )
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
@@ -56,7 +56,7 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
     options = options if apart is None else replace(options, plans_apart=apart)
     kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
                                {"name": "multi", "planning": "background", "background": options})
-    with (pc.make_controller(scenario, **kind) as ctrl, realtime_priority() if fifo else contextlib.nullcontext(),
+    with (pc.make_controller(scenario, **kind) as ctrl, real_time_priority() if fifo else contextlib.nullcontext(),
           prompt_wake_up() if awake else contextlib.nullcontext()):
         k, start, warm = 0, time.perf_counter(), None if mode != "qp" else 0
         first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last
@@ -122,7 +122,7 @@ def main() -> None:
                         help="let the workers run on every core, the loop's included (BackgroundOptions.loop_core)")
     parser.add_argument("--fifo", action="store_true",
                         help="run the loop in the real-time class once the workers have started, as `previewctl run "
-                             "--realtime` does (background.realtime_priority; needs CAP_SYS_NICE)")
+                             "--realtime` does (background.real_time_priority; needs CAP_SYS_NICE)")
     parser.add_argument("--awake", action="store_true",
                         help="keep the cores out of deep idle states while the loop runs, as `previewctl run "
                              "--realtime` does (background.prompt_wake_up; needs root)")

@@ -36,7 +36,7 @@ from previewctl.control.background import (
     RealTimeGrants,
     answer,
     prompt_wake_up,
-    realtime_priority,
+    real_time_priority,
     worker_cores,
 )
 from previewctl.control.planner import PlanTiming, WindowPlanner
@@ -371,7 +371,7 @@ def test_without_a_loop_core_the_worker_runs_on_the_loops_cores() -> None:
 def test_a_real_time_priority_is_the_threads_alone_and_undone_after() -> None:
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     child = [sys.executable, "-c", "import os; print(os.sched_getscheduler(0))"]
-    with realtime_priority() as granted:
+    with real_time_priority() as granted:
         inside = (os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK, os.sched_getparam(0).sched_priority)
         started = int(subprocess.run(child, capture_output=True, text=True, check=True).stdout)
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
@@ -389,7 +389,7 @@ def test_a_refused_real_time_priority_changes_nothing(monkeypatch: pytest.Monkey
 
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     monkeypatch.setattr(os, "sched_setscheduler", refuse)
-    with realtime_priority() as granted:
+    with real_time_priority() as granted:
         assert not granted
         assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
 

@@ -26,7 +26,7 @@ from helpers import interruptible, planar_doc, tiny_planar_toml
 import previewctl.control.background as background
 from previewctl.bench.metrics import run_metrics
 from previewctl.cli.main import main
-from previewctl.control.background import WAKE_REFUSED, BackgroundOptions, realtime_priority
+from previewctl.control.background import WAKE_REFUSED, BackgroundOptions, real_time_priority
 from previewctl.control.factory import make_controller
 from previewctl.control.params import ControllerSpec
 from previewctl.errors import IgnoredSettingWarning, PreviewctlError
@@ -498,7 +498,7 @@ def test_a_real_time_loop_runs_on_the_core_its_workers_leave_free() -> None:
         simulate(scenario, controller=ctrl, rate=100.0, progress=record)
     assert seen and all(cores == {min(before)} for cores in seen) and not workers & {min(before)}
     assert os.sched_getaffinity(0) == before  # restored once the run ended
-    with realtime_priority() as granted:
+    with real_time_priority() as granted:
         pass
     assert policies == ({os.SCHED_FIFO} if granted else {policy})  # the real-time class when the OS grants it
     assert os.sched_getscheduler(0) == policy

@@ -113,12 +113,12 @@ def on_the_loop_core() -> Iterator[None]:
 
 
 LOOP_PRIORITY = 50
-"""The real-time priority (``SCHED_FIFO``, 1-99) :func:`realtime_priority` asks for: mid-range, as ``ros2_control``'s
+"""The real-time priority (``SCHED_FIFO``, 1-99) :func:`real_time_priority` asks for: mid-range, as ``ros2_control``'s
 control loop does, below the kernel's own real-time threads."""
 
 
 @contextlib.contextmanager
-def realtime_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
+def real_time_priority(priority: int = LOOP_PRIORITY) -> Iterator[bool]:
     """Run the calling thread in Linux's real-time class (``SCHED_FIFO`` at ``priority``), where no ordinary process
     preempts it, then restore its policy; a process it starts meanwhile (a worker) starts in the ordinary class
     (``SCHED_RESET_ON_FORK``). Yields whether the OS granted it: without the permission (``CAP_SYS_NICE``, or an
@@ -180,7 +180,7 @@ class RealTimeGrants:
     """What the OS granted a :func:`real_time_loop`.
 
     Attributes:
-        fifo: the real-time class (:func:`realtime_priority`).
+        fifo: the real-time class (:func:`real_time_priority`).
         awake: the cores kept out of deep idle states (:func:`prompt_wake_up`).
     """
 
@@ -196,9 +196,9 @@ class RealTimeGrants:
 @contextlib.contextmanager
 def real_time_loop() -> Iterator[RealTimeGrants]:
     """The calling thread as a real-time loop beside its workers, until the context ends: on the core they leave
-    free (:func:`on_the_loop_core`), in the real-time class (:func:`realtime_priority`) and with the cores kept awake
+    free (:func:`on_the_loop_core`), in the real-time class (:func:`real_time_priority`) and with the cores kept awake
     (:func:`prompt_wake_up`) if the OS grants them (it yields what it granted)."""
-    with on_the_loop_core(), realtime_priority() as fifo, prompt_wake_up() as awake:
+    with on_the_loop_core(), real_time_priority() as fifo, prompt_wake_up() as awake:
         yield RealTimeGrants(fifo=fifo, awake=awake)
 
 
