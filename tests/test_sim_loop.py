@@ -533,17 +533,22 @@ def test_an_inline_real_time_run_steps_once_before_its_clock_starts() -> None:
     assert [t for _, t in calls[1:]] == pytest.approx(run.t.tolist(), abs=0.0)
 
 
-def test_a_real_time_run_warns_when_the_cores_may_not_be_kept_awake(monkeypatch: pytest.MonkeyPatch,
-                                                                      caplog: pytest.LogCaptureFixture) -> None:
+def test_a_real_time_run_warns_and_says_when_the_cores_may_not_be_kept_awake(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
     monkeypatch.setattr(background, "prompt_wake_up", lambda: contextlib.nullcontext(False))
     scenario = scenario_from_dict(planar_doc(controller={"name": "qp"}, timing={"duration": 0.1}))
     with caplog.at_level(logging.WARNING, logger="previewctl"):
-        simulate(scenario, rate=50.0)
+        summary = simulate(scenario, rate=50.0).summary()
     assert WAKE_REFUSED in caplog.messages
+    assert summary["cores_awake"] is False  # and the run says so
+    with real_time_priority() as granted:
+        pass
+    assert summary["real_time_class"] is granted
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="previewctl"):
-        simulate(scenario)  # simulated time: no real-time loop, nothing to warn about
+        summary = simulate(scenario).summary()  # simulated time: no real-time loop, nothing to warn about
     assert WAKE_REFUSED not in caplog.messages
+    assert summary["real_time_class"] is None and summary["cores_awake"] is None
 
 
 @pytest.mark.parametrize("rate", [0.0, -250.0, float("nan"), "fast"])
@@ -598,6 +603,8 @@ def test_cli_run_realtime_prints_and_writes_the_cycle_figures(tmp_path: Path,
     assert re.search(r"deadline misses +\d+ of \d+ cycles longer than 4 ms \(real time\)", out)
     # a result in use, or none ('-') when a loaded host let every result expire
     assert re.search(r"plan age p95 / fallback +(\d+ ms|-) / [\d.]+% of cycles", out)
+    assert re.search(r"real-time loop +(SCHED_FIFO|ordinary class \(SCHED_FIFO refused\)), "
+                     r"cores (kept awake|may halt \(refused\))", out)
 
 
 @pytest.mark.parametrize(("argv", "message"), [

@@ -146,6 +146,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         ("plan age p95 / fallback", f"{'-' if age is None else f'{age * 1e3:.0f} ms'} / "
                                     f"{100 * summary['fallback_fraction']:.1f}% of cycles"),
     ]
+    if summary["real_time_class"] is not None:
+        fifo = "SCHED_FIFO" if summary["real_time_class"] else "ordinary class (SCHED_FIFO refused)"
+        awake = "cores kept awake" if summary["cores_awake"] else "cores may halt (refused)"
+        rows.append(("real-time loop", f"{fifo}, {awake}"))
     sensing = scenario.sensing
     if sensing is not None:
         rows.append(("observations", f"{summary['observations']} delivered, {summary['observations_dropped']} dropped "

@@ -73,6 +73,10 @@ class RunResult:
         observations: ``(T,)`` observed obstacles (a scenario's ``[sensing]``): the observations delivered to the
             controller before each step (:mod:`previewctl.sim.sensor`); 0 without sensing.
         observations_dropped: the observations due by the last step that the sensor dropped.
+        real_time_class: a real-time run's loop in Linux's real-time class (``SCHED_FIFO``): ``"granted"`` or
+            ``"refused"`` by the OS; ``""`` in simulated time (:func:`~previewctl.control.background.real_time_loop`).
+        cores_awake: a real-time run's cores kept out of deep idle states: ``"granted"``, ``"refused"`` or ``""``,
+            as ``real_time_class``.
     """
 
     scenario: str
@@ -112,6 +116,8 @@ class RunResult:
     self_pairs: tuple[tuple[str, str], ...]
     observations: NDArray[np.int64]
     observations_dropped: int
+    real_time_class: str
+    cores_awake: str
 
     @property
     def steps(self) -> int:
@@ -157,7 +163,8 @@ class RunResult:
         missed the next deadline), and of background planning ``plan_age_p95`` [s] (``None`` without a result in
         use, e.g. inline) and ``fallback_fraction`` (the fraction of cycles that ran the ``qp`` law instead; 0
         inline); ``observations`` and ``observations_dropped``: observations delivered to the controller and dropped
-        by the simulator's sensor (0 without ``[sensing]``).
+        by the simulator's sensor (0 without ``[sensing]``); ``real_time_class`` and ``cores_awake``: whether the OS
+        granted a real-time run's loop the real-time class and kept its cores awake (``None`` in simulated time).
         """
         k, s, e = self.collision_index, self.self_collision_index, self.error_index
         failures = [part for part, index in (("collision", k), ("self-collision", s), ("hand error", e))
@@ -201,6 +208,8 @@ class RunResult:
             "max_slack": float(self.slack.max()) if self.steps else 0.0,
             "observations": int(self.observations.sum()),
             "observations_dropped": self.observations_dropped,
+            "real_time_class": _granted(self.real_time_class),
+            "cores_awake": _granted(self.cores_awake),
             **self._timing(),
         }
 
@@ -215,6 +224,11 @@ class RunResult:
             "plan_age_p95": float(np.percentile(ages, 95)) if ages.size else None,
             "fallback_fraction": float(self.fallback.mean()) if self.steps else 0.0,
         }
+
+
+def _granted(answer: str) -> bool | None:
+    """A request's answer in the log (``"granted"``, ``"refused"``, ``""`` when not asked) as the summary says it."""
+    return None if not answer else answer == "granted"
 
 
 # ------------------------------------------------------------------------------------ saving
@@ -271,12 +285,12 @@ def load_run(out_dir: str | os.PathLike[str]) -> RunResult:
 def _added_later(steps: int, cycle_time: NDArray[Any]) -> dict[str, NDArray[Any]]:
     """The members a log written by an older previewctl lacks, as that run had them: no self pair measured, no
     composition recorded (an empty text), inline planning, no whole cycle timed (taken as its control cycle,
-    ``cycle_time``, a lower bound), and no observation."""
+    ``cycle_time``, a lower bound), no observation, and nothing asked of the OS for a real-time loop."""
     return {"loop_time": cycle_time, "plan_age": np.full(steps, np.nan), "fallback": np.zeros(steps, dtype=bool),
             "self_distance": np.full(steps, np.inf), "self_collision": np.zeros(steps, dtype=bool),
             "self_pair": np.full(steps, -1, dtype=np.int64), "self_pairs": np.zeros((0, 2), dtype=str),
             "composition": np.array(""), "observations": np.zeros(steps, dtype=np.int64),
-            "observations_dropped": np.array(0)}
+            "observations_dropped": np.array(0), "real_time_class": np.array(""), "cores_awake": np.array("")}
 
 
 def _stored(value: object) -> NDArray[Any]:

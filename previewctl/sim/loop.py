@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from previewctl.control.background import RealTimeGrants, real_time_loop
+from previewctl.control.background import real_time_loop
 from previewctl.control.base import ControlInfo
 from previewctl.control.controller import Controller, frame_index
 from previewctl.control.factory import BACKGROUND_CONTROLLERS, make_controller
@@ -135,8 +135,8 @@ def simulate(
         if rate is not None:
             _get_ready(controller, scenario.q0, dt)
         ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
-        with contextlib.nullcontext(RealTimeGrants(True, True)) if rate is None else real_time_loop() as granted:
-            for refusal in granted.refusals:
+        with contextlib.nullcontext(None) if rate is None else real_time_loop() as granted:
+            for refusal in () if granted is None else granted.refusals:
                 _log.warning(refusal)
             count = _run(scenario, controller, exact_evaluator, log, ticks, progress, stop_on_collision, sensor)
     finally:
@@ -156,8 +156,15 @@ def simulate(
         composition=str(controller.describe()),
         self_pairs=exact_evaluator.robot.self_pairs.links,
         observations_dropped=0 if sensor is None else sensor.dropped_by(float(log.columns["t"][count - 1])),
+        real_time_class="" if granted is None else _answer(granted.fifo),
+        cores_awake="" if granted is None else _answer(granted.awake),
         **log.arrays(count),
     )
+
+
+def _answer(granted: bool) -> str:
+    """How the log records the OS's answer to a request (:attr:`RunResult.real_time_class`)."""
+    return "granted" if granted else "refused"
 
 
 def _get_ready(controller: Controller, q0: Array, dt: float) -> None:
