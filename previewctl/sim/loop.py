@@ -97,9 +97,10 @@ def simulate(
             Ctrl-C. The clock starts once the controller has stepped at the start state (its first step loads the
             compiled kernels) and its planning worker, if any, has answered it (a robot holds still until its
             planner is ready), or failed. The loop runs on the core the workers leave free, in the
-            real-time class if the OS grants it (:func:`~previewctl.control.background.real_time_loop`; a warning
-            is logged if not), until the run ends. Default: simulated time,
-            the scenario's ``dt``, inline planning (deterministic).
+            real-time class and with the cores kept awake if the OS grants them
+            (:func:`~previewctl.control.background.real_time_loop`; a warning is logged for each refusal, and the log
+            records both answers), until the run ends. Default: simulated time, the scenario's ``dt``, inline
+            planning (deterministic).
 
     Returns:
         The log.
