@@ -55,9 +55,9 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
     results: dict[float, float] = {}
     options = BackgroundOptions(loop_core=loop_core)
     options = options if apart is None else replace(options, plans_apart=apart)
-    kind: dict[str, object] = ({"name": "qp"} if mode == "qp" else
-                               {"name": "multi", "planning": "background", "background": options})
-    with (pc.make_controller(scenario, **kind) as ctrl, real_time_priority() if fifo else contextlib.nullcontext(),
+    ctrl = (pc.make_controller(scenario, name="qp") if mode == "qp" else
+            pc.make_controller(scenario, name="multi", planning="background", background=options))
+    with (ctrl, real_time_priority() if fifo else contextlib.nullcontext(),
           prompt_wake_up() if awake else contextlib.nullcontext()):
         k, start, warm = 0, time.perf_counter(), None
         first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last

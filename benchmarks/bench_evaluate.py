@@ -22,7 +22,7 @@ import pinocchio as pin
 
 import previewctl as pc
 from previewctl.index.amsi import unit_ball_volume
-from previewctl.robot.model import Robot
+from previewctl.robot.model import Geometry, Robot
 from previewctl.robot.self_pairs import SelfPairs
 from previewctl.scene.motion import Static
 
@@ -104,11 +104,13 @@ def main() -> None:
     print(f"\nself pairs: one evaluate call, population 64, 1 sphere ({calls} calls each, alternated) [ms]")
     print(f"{'case':<36}{'without':>16}{'with':>16}{'wall':>9}{'CPU':>17}{'CPU':>9}")
     print(f"{'':<36}{'p50':>8}{'p90':>8}{'p50':>8}{'p90':>8}{'ratio':>9}{'w/o p50':>9}{'p50':>8}{'ratio':>9}")
-    for name, geometry in (("panda", "convex"), ("panda", "capsules"), ("panda", "mesh"), ("ur5", "convex")):
+    robots: tuple[tuple[str, Geometry], ...] = (("panda", "convex"), ("panda", "capsules"), ("panda", "mesh"),
+                                                ("ur5", "convex"))
+    for name, geometry in robots:
         self_pair_cost(name, geometry, ball, calls if geometry != "mesh" else calls // 8, rng)
 
 
-def self_pair_cost(name: str, geometry: str, scene: pc.Scene, calls: int, rng: np.random.Generator) -> None:
+def self_pair_cost(name: str, geometry: Geometry, scene: pc.Scene, calls: int, rng: np.random.Generator) -> None:
     """Print the per-call times of one population with and without the self pairs, and their ratio."""
     robot = pc.load_robot(name, geometry=geometry)
     bare = dataclasses.replace(robot, self_pairs=SelfPairs())

@@ -52,7 +52,7 @@ def _distinct(name: str, execution: str) -> bool:
 
 def _jobs(scene_docs: dict[str, dict[str, Any]]) -> list[tuple[str, str, str, str, dict[str, Any]]]:
     """``(label, scene, controller, execution, overrides)`` of every run."""
-    jobs = []
+    jobs: list[tuple[str, str, str, str, dict[str, Any]]] = []
     scenes = ["paper_fitted", "panda_crossing", *scene_docs]
     for scene in scenes:
         for name in CONTROLLERS:
