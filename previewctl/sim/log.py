@@ -226,8 +226,14 @@ class RunResult:
         }
 
 
+def grant_record(granted: bool | None) -> str:
+    """How the log records the OS's answer to a real-time request (:attr:`RunResult.real_time_class`): ``"granted"``,
+    ``"refused"``, or ``""`` when it was not asked (``None``: simulated time); :func:`_granted` reads it back."""
+    return "" if granted is None else "granted" if granted else "refused"
+
+
 def _granted(answer: str) -> bool | None:
-    """A request's answer in the log (``"granted"``, ``"refused"``, ``""`` when not asked) as the summary says it."""
+    """A request's answer as :func:`grant_record` logged it, as the summary says it (``None``: not asked)."""
     return None if not answer else answer == "granted"
 
 

@@ -45,7 +45,7 @@ from previewctl.index.evaluator import Evaluation, Evaluator
 from previewctl.kinematics import integrate
 from previewctl.robot.model import Robot
 from previewctl.sim.clock import Tick, simulated_ticks, wall_ticks
-from previewctl.sim.log import RunResult
+from previewctl.sim.log import RunResult, grant_record
 from previewctl.sim.scenario import Scenario, Verdict
 from previewctl.sim.sensor import Sensor
 from previewctl.sim.start import check_start
@@ -157,15 +157,10 @@ def simulate(
         composition=str(controller.describe()),
         self_pairs=exact_evaluator.robot.self_pairs.links,
         observations_dropped=0 if sensor is None else sensor.dropped_by(float(log.columns["t"][count - 1])),
-        real_time_class="" if granted is None else _answer(granted.fifo),
-        cores_awake="" if granted is None else _answer(granted.awake),
+        real_time_class=grant_record(None if granted is None else granted.fifo),
+        cores_awake=grant_record(None if granted is None else granted.awake),
         **log.arrays(count),
     )
-
-
-def _answer(granted: bool) -> str:
-    """How the log records the OS's answer to a request (:attr:`RunResult.real_time_class`)."""
-    return "granted" if granted else "refused"
 
 
 def _get_ready(controller: Controller, q0: Array, dt: float) -> None:
