@@ -228,7 +228,8 @@ class RunResult:
 
 def grant_record(granted: bool | None) -> str:
     """How the log records the OS's answer to a real-time request (:attr:`RunResult.real_time_class`): ``"granted"``,
-    ``"refused"``, or ``""`` when it was not asked (``None``: simulated time); :func:`_granted` reads it back."""
+    ``"refused"``, or ``""`` when it was not asked (``None``: simulated time); :meth:`RunResult.summary` reads it
+    back."""
     return "" if granted is None else "granted" if granted else "refused"
 
 
