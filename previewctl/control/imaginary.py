@@ -284,6 +284,6 @@ class RoutePoints:
 def plan_points(planner: WindowPlanner, t: float, preview_time: float, count: int) -> Targets:
     """The plan's configurations at the preview times ``t + i t̃``, ``i = 1..count`` [s], as targets at full weight
     whose differences to the arm are plain (the plan is unwrapped along its motion)."""
-    points = [planner.point(t + (i + 1) * preview_time) for i in range(count)]
-    return Targets(np.array([arm for arm, _, _ in points]), np.array([S for _, _, S in points]),
+    points = [planner.configuration(t + (i + 1) * preview_time) for i in range(count)]
+    return Targets(np.array([arm for arm, _ in points]), np.array([S for _, S in points]),
                    ramp=np.ones(count), keep=tuple(range(planner.robot.nv)))

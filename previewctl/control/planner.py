@@ -230,7 +230,7 @@ class WindowPlanner:
         """
         self.motion, self.result, self._pending = motion, None, None
         self._join = None
-        self._join = (t + self.timing.lookahead, pin.difference(self.robot.model, self.point(t)[0], q))
+        self._join = (t + self.timing.lookahead, pin.difference(self.robot.model, self.configuration(t)[0], q))
 
     def due(self, t: float) -> bool:
         """Whether a plan is due at ``t`` [s]: none made yet, or a replan (with a window; without, it plans once)."""
@@ -239,20 +239,38 @@ class WindowPlanner:
     def point(self, t: float) -> tuple[Array, Array, float]:
         """The plan being followed at time ``t`` [s]: its configuration ``(nq,)``, velocity ``(nv,)`` [rad/s] and S
         (linear between samples; the first or last sample, at rest, outside the plan)."""
-        motion = self.motion
-        if motion is None:
-            raise ConfigurationError("no plan was made yet: plan() makes one")
-        coordinates = self._coordinates(motion)
-        angles, rate = coordinates.at(t), coordinates.velocity(t)
-        if self._join is not None:  # a late plan joined to the arm (follow())
+        q, S = self.configuration(t)
+        coordinates = self._coordinates(self._followed())
+        rate = coordinates.velocity(t)
+        if self._join is not None:  # a late plan joined to the arm (follow()): the offset's fade
             start, offset = self._join
-            period = self.timing.replan_period
-            u = min(max((t - start) / period, 0.0), 1.0)
-            angles = angles + (1.0 - u * u * (3.0 - 2.0 * u)) * offset
+            u, period = self._fade(t, start)
             rate = rate - 6.0 * u * (1.0 - u) / period * offset
+        return q, rate, S
+
+    def configuration(self, t: float) -> tuple[Array, float]:
+        """The configuration ``(nq,)`` and S of :meth:`point` at ``t`` [s], without the velocity."""
+        motion = self._followed()
+        angles = self._coordinates(motion).at(t)
+        if self._join is not None:  # a late plan joined to the arm (follow()): the offset, fading
+            start, offset = self._join
+            u, _ = self._fade(t, start)
+            angles = angles + (1.0 - u * u * (3.0 - 2.0 * u)) * offset
         q = angles if self.robot.joints.vector_space else self.robot.configuration_from_angles(angles)
         S = float(np.interp(t, motion.times, motion.S)) if motion.times.size else float("nan")
-        return q, rate, S
+        return q, S
+
+    def _followed(self) -> ReachMotion:
+        """The plan being followed; a :class:`~previewctl.errors.ConfigurationError` before the first."""
+        if self.motion is None:
+            raise ConfigurationError("no plan was made yet: plan() makes one")
+        return self.motion
+
+    def _fade(self, t: float, start: float) -> tuple[float, float]:
+        """Where ``t`` [s] is in the fade of a join that fades from ``start`` [s] (:meth:`follow`): ``u`` in [0, 1],
+        and the fade's length [s]."""
+        period = self.timing.replan_period
+        return min(max((t - start) / period, 0.0), 1.0), period
 
     def _coordinates(self, motion: ReachMotion) -> ReachMotion:
         """``motion`` in joint coordinates ``(nv)``: itself on an arm whose configuration is its joint angles;

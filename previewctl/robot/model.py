@@ -182,17 +182,8 @@ class Robot:
                 f"q has shape {arr.shape}; robot {self.name!r} needs ({self.nq},) or (B, {self.nq}) "
                 f"for joints {', '.join(self.joint_names)}"
             )
-        bad = ~np.isfinite(batch)
-        if bad.any():
-            row, col = np.argwhere(bad)[0]
-            raise ConfigurationError(
-                f"q[{row}, {col}] = {batch[row, col]} (joint {self.joint_names_by_q()[col]!r}) is not finite"
-            )
-        huge = np.abs(batch) > MAX_COORDINATE
-        if huge.any():
-            row, col = np.argwhere(huge)[0]
-            raise ConfigurationError(f"q[{row}, {col}] = {batch[row, col]:g} (joint {self.joint_names_by_q()[col]!r}) "
-                                     f"is out of range; valid: |q| <= {MAX_COORDINATE:g} [rad or m]")
+        if not (np.abs(batch) <= MAX_COORDINATE).all():  # one test for both (false for a NaN); then which it is
+            self._refuse_entry(batch)
         pairs = self.joints.unit_pairs
         if pairs.size:
             norms = np.hypot(batch[:, pairs[:, 0]], batch[:, pairs[:, 1]])
@@ -206,6 +197,19 @@ class Robot:
                     f"{UNIT_PAIR_TOLERANCE:g}, got norm {norms[row, k]:.6g}"
                 )
         return batch, single
+
+    def _refuse_entry(self, batch: NDArray[np.float64]) -> None:
+        """The :class:`ConfigurationError` of :meth:`check_configurations` for ``batch``'s first non-finite entry, or
+        else its first entry beyond :data:`MAX_COORDINATE`."""
+        bad = ~np.isfinite(batch)
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            raise ConfigurationError(
+                f"q[{row}, {col}] = {batch[row, col]} (joint {self.joint_names_by_q()[col]!r}) is not finite"
+            )
+        row, col = np.argwhere(np.abs(batch) > MAX_COORDINATE)[0]
+        raise ConfigurationError(f"q[{row}, {col}] = {batch[row, col]:g} (joint {self.joint_names_by_q()[col]!r}) "
+                                 f"is out of range; valid: |q| <= {MAX_COORDINATE:g} [rad or m]")
 
     def check_limits(self, q: NDArray[np.float64]) -> None:
         """Raise :class:`ConfigurationError` naming the first joint of ``q`` ``(nq,)`` outside its position
