@@ -36,6 +36,7 @@ from previewctl.control.background import (
     prompt_wake_up,
     real_time_priority,
 )
+from previewctl.sim.clock import REHEARSAL_SHARE, wait_until
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario
 
@@ -44,11 +45,11 @@ SCENES = {"planar": "paper_fitted", "panda": "panda_crossing"}
 
 
 def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = None, loop_core: bool = True,
-            fifo: bool = False, awake: bool = False) -> str:
+            fifo: bool = False, awake: bool = False, warm: bool = False) -> str:
     """One run of ``cycles`` measured steps (background ``multi``, or inline ``qp`` for ``mode == "qp"``; its searches
     and plans in two workers if ``apart``, one if not, the machine's default if ``None``; the workers kept off the
     loop's core if ``loop_core``; the loop in the real-time class if ``fifo``; the cores kept out of deep idle states if
-    ``awake``); a line of its numbers."""
+    ``awake``; the step rehearsed before each paced deadline if ``warm``); a line of its numbers."""
     robot, paced = scenario.robot, mode != "fast"
     q = np.array(scenario.q0, dtype=float)
     times, cpu, ages, fallbacks, errors = [], [], [], 0, set()
@@ -59,23 +60,21 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
             pc.make_controller(scenario, name="multi", planning="background", background=options))
     with (ctrl, real_time_priority() if fifo else contextlib.nullcontext(),
           prompt_wake_up() if awake else contextlib.nullcontext()):
-        k, start, warm = 0, time.perf_counter(), None
+        k, start, ready, expected = 0, time.perf_counter(), None, 0.0
         first = last = (0, 0)  # (cycle, generations run) at the first measured cycle that knows the count, at the last
-        while warm is None or k - warm < cycles:
-            if paced:  # sleep to just before the deadline, then spin
-                deadline = start + k * DT
-                while (left := deadline - time.perf_counter()) > 0:
-                    if left > 0.001:
-                        time.sleep(left - 0.0005)
+        while ready is None or k - ready < cycles:
+            if paced:  # sleep to just before the deadline (if warm, rehearse the step over the last stretch), then spin
+                expected = wait_until(start + k * DT, ctrl.rehearse if warm else None, REHEARSAL_SHARE * DT,
+                                      expected)
             before, cpu_before = time.perf_counter(), time.process_time()
             qdot = ctrl.step(q, k * DT, DT)
             spent, cpu_spent = time.perf_counter() - before, time.process_time() - cpu_before
             q = pc.integrate(robot, q, qdot, DT)
             info = ctrl.last_info
             k += 1
-            if warm is None:  # qp: its first step (the compiled kernels' load) is not measured
+            if ready is None:  # qp: its first step (the compiled kernels' load) is not measured
                 if mode == "qp" or info.plan_age is not None:
-                    warm = k
+                    ready = k
                 continue
             times.append(spent)
             cpu.append(cpu_spent)
@@ -127,6 +126,9 @@ def main() -> None:
     parser.add_argument("--awake", action="store_true",
                         help="keep the cores out of deep idle states while the loop runs, as `previewctl run "
                              "--realtime` does (background.prompt_wake_up; needs root)")
+    parser.add_argument("--warm", action="store_true",
+                        help="rehearse the step (Controller.rehearse) over the last stretch before each paced deadline "
+                             "instead of sleeping, as `previewctl run --realtime` does (sim.clock.wait_until)")
     args = parser.parse_args()
     print(f"{'multi, background, dt = 4 ms':<40}{'p50':>8}{'p99':>8}{'max':>9}{'miss':>8}{'cpu50':>8}{'cpu99':>8}"
           f"{'fallback':>10}{'age50':>8}"
@@ -139,7 +141,7 @@ def main() -> None:
                 scenario = replace(scenario, controller=replace(scenario.controller, params=params))
             for mode in args.modes:
                 line = measure(scenario, args.cycles, mode, None if args.workers is None else args.workers == 2,
-                               not args.no_loop_core, args.fifo, args.awake)
+                               not args.no_loop_core, args.fifo, args.awake, args.warm)
                 print(f"{SCENES[key] + ', ' + mode:<40}{line}", flush=True)
 
 

@@ -309,9 +309,10 @@ def test_a_late_plan_is_joined_to_the_present_state(planar4: Robot) -> None:
 
 
 @pytest.mark.parametrize(("name", "targets"), [("multi", 3), ("reach", 3), ("horizon", 1)])
-def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, targets: int) -> None:
+def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, targets: int,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """Coherent ``multi`` on planar4 (points of a route: the GA and the DP), ``reach`` (the DP's plan toward the GA's
-    peaks) and ``horizon`` (the DP's plan)."""
+    peaks) and ``horizon`` (the DP's plan); a rehearsal of the last step posts nothing and keeps the result in use."""
     scenario = planar_scenario(name)
     apart = BackgroundOptions(plans_apart=True)  # the default on 4 cores or more (test below)
     with pc.make_controller(scenario, planning="background", background=apart) as ctrl:
@@ -333,6 +334,13 @@ def test_a_real_background_run_uses_the_workers_plans_and_cleans_up(name: str, t
             assert time.monotonic() < deadline, f"no valid plan after {WAIT} s: {info}"
             time.sleep(0.02)  # the path's clock runs 6 times slower than the wall's: the host is shared
         assert info.plan_age is not None and info.targets is not None and info.targets.shape == (targets, 4)
+        result = ctrl.planning.result  # type: ignore[union-attr]
+        with monkeypatch.context() as patch:
+            for worker in (ctrl.planning.worker, plans):  # type: ignore[union-attr]
+                if worker is not None:
+                    patch.setattr(worker, "post", lambda *state: pytest.fail(f"a rehearsal posted {state}"))
+            ctrl.rehearse()
+        assert ctrl.last_info is info and ctrl.planning.result is result  # type: ignore[union-attr]
         options, own = BackgroundOptions(), os.getpriority(os.PRIO_PROCESS, 0)
         if plans is not None:  # the searches answer apart from the plans: their peaks are the plans' goals
             searched = ctrl.planning.searched  # type: ignore[union-attr]

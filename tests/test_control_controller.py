@@ -81,6 +81,25 @@ def test_step_gives_what_the_simulator_applies(mode: str) -> None:
         assert ctrl.last_info.hand_error == pytest.approx(run.hand_error[k], abs=1e-15)
 
 
+@pytest.mark.parametrize("mode", ["qp", "multi"])
+def test_a_rehearsal_changes_nothing(mode: str) -> None:
+    scenario = planar_scenario(mode)
+    run = pc.simulate(scenario, exact_evaluator=Evaluator(scenario.robot, scenario.scene))
+    ctrl = pc.make_controller(scenario)
+    ctrl.rehearse()  # before the first step: nothing to rehearse
+    dampers = 0
+    for k in range(run.steps):
+        qdot = ctrl.step(run.q[k], run.t[k], scenario.timing.dt)
+        np.testing.assert_array_equal(qdot, run.qdot[k])
+        assert ctrl.last_info.hand_error == pytest.approx(run.hand_error[k], abs=1e-15)
+        info = ctrl.last_info
+        ctrl.rehearse()
+        ctrl.rehearse()
+        assert ctrl.last_info is info  # what the cycle reported stays
+        dampers += info.executed.dampers
+    assert dampers > 0  # the rehearsals ran the QP's damper rows too
+
+
 def test_step_without_dt_uses_the_time_elapsed() -> None:
     ctrl = pc.make_controller(planar_scenario("none"))
     q = np.array(Q0)

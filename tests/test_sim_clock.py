@@ -71,3 +71,49 @@ def test_the_real_clock_waits_for_each_deadline() -> None:
     ticks = list(wall_ticks(0.02, 5))
     assert time.perf_counter() - start >= 0.1 and ticks[-1].k == 5
     assert all(tick.t >= tick.k * 0.02 for tick in ticks)
+
+
+class Rehearsal:
+    """A stand-in for ``Controller.rehearse`` that costs ``cost`` [s] of the stand-in clock per call."""
+
+    def __init__(self, fake: FakeTime, cost: float) -> None:
+        self.fake, self.cost, self.calls = fake, cost, 0
+
+    def __call__(self) -> None:
+        self.calls += 1
+        self.fake.now += self.cost
+
+
+def test_a_rehearsal_fills_the_last_stretch_and_never_runs_past_the_deadline(fake: FakeTime) -> None:
+    rehearse = Rehearsal(fake, 4e-4)
+    deadline = fake.now + 0.004
+    longest = clock.wait_until(deadline, rehearse, lead=0.0015)
+    # from 1.5 ms before the deadline, calls of 0.4 ms while one more (and the 0.2 ms spin) fits: 3 calls
+    assert rehearse.calls == 3 and longest == pytest.approx(4e-4, abs=1e-5)
+    assert deadline <= fake.now < deadline + 1e-5
+
+
+def test_a_rehearsal_expected_to_be_too_long_is_skipped_then_tried_again(fake: FakeTime) -> None:
+    rehearse = Rehearsal(fake, 4e-4)
+    deadline = fake.now + 0.004
+    assert clock.wait_until(deadline, rehearse, lead=0.0015, expected=0.002) == pytest.approx(0.001)
+    assert rehearse.calls == 0 and deadline <= fake.now < deadline + 1e-5
+    deadline = fake.now + 0.004
+    clock.wait_until(deadline, rehearse, lead=0.0015, expected=0.001)  # the halved guess fits: it runs again
+    assert rehearse.calls == 1
+
+
+def test_without_a_rehearsal_the_clock_sleeps_to_the_spin(fake: FakeTime) -> None:
+    deadline = fake.now + 0.004
+    assert clock.wait_until(deadline) == 0.0 and deadline <= fake.now < deadline + 1e-5
+
+
+def test_wall_ticks_rehearse_over_the_last_half_of_each_period(fake: FakeTime) -> None:
+    rehearse = Rehearsal(fake, 1e-4)
+    ticks = []
+    for tick in wall_ticks(0.001, 10, rehearse):  # 1 kHz: the last 0.5 ms of each period
+        ticks.append(tick)
+        fake.now += 1e-4  # the cycle's work
+    assert [tick.k for tick in ticks] == list(range(11)) and all(0.0 <= tick.late < 1e-4 for tick in ticks)
+    # per wait: from 0.5 ms before the deadline, 0.1 ms calls while one more and the 0.2 ms spin fit: 2 each, 10 waits
+    assert rehearse.calls == 20

@@ -58,7 +58,9 @@ def add_parser(commands: Commands) -> None:
                      help=f"also write the 3-D replay (OUT/{REPLAY_NAME}, opens from disk in a browser)")
     run.add_argument("--realtime", action="store_true",
                      help="run in real time: the simulated arm advances with the wall clock at --rate, each cycle "
-                     "sleeping to its deadline (an overrun is counted as a deadline miss, not caught up), and the "
+                     "waiting for its deadline (an overrun is counted as a deadline miss, not caught up) by sleeping "
+                     "through the first half of the period and rehearsing the last step through the second, to keep "
+                     "the caches warm; the "
                      "searches and planner run in a worker process beside the loop ('none', 'qp' and 'gradient' "
                      "have nothing to plan and run inline), the loop on a core of its own (the lowest), the worker on "
                      "the others, the loop in Linux's real-time class (SCHED_FIFO) and the cores kept out of deep idle "

@@ -99,7 +99,10 @@ def simulate(
             planner is ready), or failed. The loop runs on the core the workers leave free, in the
             real-time class and with the cores kept awake if the OS grants them
             (:func:`~previewctl.control.background.real_time_loop`; a warning is logged for each refusal, and the log
-            records both answers), until the run ends. Default: simulated time, the scenario's ``dt``, inline
+            records both answers), until the run ends; over the last stretch before each deadline the loop rehearses
+            the step instead of sleeping, to start each cycle with warm caches
+            (:meth:`~previewctl.control.controller.Controller.rehearse`, :func:`~previewctl.sim.clock.wait_until`).
+            Default: simulated time, the scenario's ``dt``, inline
             planning (deterministic).
 
     Returns:
@@ -135,7 +138,7 @@ def simulate(
     try:
         if rate is not None:
             _get_ready(controller, scenario.q0, dt)
-        ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps)
+        ticks = simulated_ticks(dt, steps) if rate is None else wall_ticks(dt, steps, controller.rehearse)
         with contextlib.nullcontext(None) if rate is None else real_time_loop() as granted:
             for refusal in () if granted is None else granted.refusals:
                 _log.warning(refusal)
