@@ -267,8 +267,8 @@ class Controller:
 
     def rehearse(self) -> None:
         """Compute the last :meth:`step` again and discard it, changing nothing: its kinematics, eq. 19's reference
-        and the execution, and with background planning also the law (which then only reads the worker's latest
-        result); no state is posted, no observation read, no search run. Nothing before the first step.
+        and the execution, and, if that step used the background worker's result, also the law (which then only reads
+        that result); no state is posted, no observation read, no search run. Nothing before the first step.
 
         For a real-time loop that waits for its deadline: called shortly before it, it brings the step's code and data
         back into the core's caches, which a shared host's other work evicts during the wait (on the 2-core host of

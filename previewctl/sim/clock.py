@@ -12,9 +12,9 @@ A clock yields the loop's cycles as :class:`Tick`\\ s, the deadlines ``k period`
 
   Given a ``rehearse`` (:meth:`~previewctl.control.controller.Controller.rehearse`), the clock calls it over the last
   part of each period (:data:`REHEARSAL_SHARE`), as long as another call fits before the deadline, instead of
-  sleeping: the cycle then starts with the step's code and data in the core's caches. On a
-  shared host the wait evicts them, and a paced step cost 2-2.5x an unpaced one in this project's measurements
-  (the Speed page, "Caches kept warm"). It keeps the loop's core busy for that part of every period.
+  sleeping: the cycle then starts with the step's code and data in the core's caches. On a shared host the wait
+  evicts them, and a paced step cost 2-2.5x an unpaced one in this project's measurements (the Speed page, "Caches
+  kept warm"). It keeps the loop's core busy for that part of every period.
 """
 
 from __future__ import annotations

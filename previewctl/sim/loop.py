@@ -99,11 +99,10 @@ def simulate(
             planner is ready), or failed. The loop runs on the core the workers leave free, in the
             real-time class and with the cores kept awake if the OS grants them
             (:func:`~previewctl.control.background.real_time_loop`; a warning is logged for each refusal, and the log
-            records both answers), until the run ends; over the last stretch before each deadline the loop rehearses
-            the step instead of sleeping, to start each cycle with warm caches
+            records both answers), until the run ends; over the last half of each period the loop rehearses the step
+            instead of sleeping, to start each cycle with warm caches
             (:meth:`~previewctl.control.controller.Controller.rehearse`, :func:`~previewctl.sim.clock.wait_until`).
-            Default: simulated time, the scenario's ``dt``, inline
-            planning (deterministic).
+            Default: simulated time, the scenario's ``dt``, inline planning (deterministic).
 
     Returns:
         The log.
