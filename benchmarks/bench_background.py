@@ -16,7 +16,7 @@ imaginary arm that the searches ran per camera frame, from the first measured cy
 worker's errors. On a shared host the worker competes with everything else; these are not timed tests.
 
 Run: ``python benchmarks/bench_background.py [--cycles N] [--scenes planar panda] [--modes fast paced]
-[--pin-loop] [--no-loop-core] [--fifo] [--awake]``.
+[--pin-loop] [--no-loop-core] [--fifo] [--awake] [--warm]``.
 """
 
 from __future__ import annotations
