@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import TracebackType
 from typing import Any
 
@@ -142,7 +142,7 @@ class Controller:
         self._last_frame: int | None = None
         self._last_t: float | None = None
         self._last_info: ControlInfo | None = None
-        self._last_cycle: tuple[ControlState, NullInput, bool] | None = None  # (state, null input, law only reads)
+        self._last_cycle: tuple[ControlState, NullInput] | None = None  # what rehearse() computes again
         self.planning = planning
         self.observed = observed
 
@@ -262,7 +262,7 @@ class Controller:
                          late_observations=changes.late)
         self._last_info = ControlInfo(ref, executed, state.frame_due, null.targets, null.target_amsip, **extra)
         self._last_frame, self._last_t = frame, now
-        self._last_cycle = (state, null, status is not None and not status.fallback)
+        self._last_cycle = (state, null)
         return executed.qdot
 
     def rehearse(self) -> None:
@@ -277,11 +277,9 @@ class Controller:
         """
         if self._last_cycle is None:
             return
-        last, null, law_reads = self._last_cycle
-        kin = kinematics(self.robot, last.kin.q, reader=self._reader)
-        state = ControlState(last.q, last.t, kin, self.path, last.dt, frame_due=False, data=self._scratch,
-                             joint_data=self._reader.data)
-        if law_reads:
+        last, null = self._last_cycle
+        state = replace(last, kin=kinematics(self.robot, last.kin.q, reader=self._reader), frame_due=False)
+        if self.planning is not None and not self.last_info.fallback:  # the law only reads the worker's result
             null = self.law.null_input(state)
         self.execution(state, self._tracking(state, null.v))
 
