@@ -1,4 +1,5 @@
-"""The window planner's measured latency: each plan arrives after its own compute time, in whole control periods."""
+"""The window planner's measured latency (each plan arrives after its own compute time, in whole control periods),
+and its plans around predicted obstacles."""
 
 from __future__ import annotations
 
@@ -18,6 +19,9 @@ from previewctl.control.planner import PlanTiming, WindowPlanner
 from previewctl.errors import ParameterError
 from previewctl.index.evaluator import Evaluator
 from previewctl.kinematics import integrate, kinematics
+from previewctl.scene.shapes import Obstacle, Scene, Sphere
+from previewctl.sensing.predictors import Stationary
+from previewctl.sensing.track import Track
 from previewctl.sim.paper import shipped_scenarios_dir
 from previewctl.sim.scenario import Scenario, load_scenario, scenario_from_dict
 
@@ -146,3 +150,34 @@ def test_a_plan_with_too_little_path_left_for_one_grid_step_holds_instead_of_fai
     end = scenario.path.end_time
     held = planner.plan(_state(scenario, end - 0.005))
     assert held.times.tolist() == [end - 0.005] and np.isnan(held.min_S)
+
+
+def _planner_around_an_observed_ball(cap: float) -> tuple[WindowPlanner, ControlState]:
+    """A 1 s window on planar4 by a stationary ball observed at rest, inflated by ``cap`` [m] (its margin: k = 1e6);
+    the state at t = 0."""
+    scenario = scenario_from_dict({"name": "margins", "robot": {"source": "planar4", "q0": [0.6, 1.0, -1.2, -1.0]},
+                                   "path": {"waypoints": [[1.9069, 1.0417], [1.6069, 0.6417]], "duration": 5.0}})
+    track = Track(Stationary(q=0.0, r=0.01), confidence=1e6, cap=cap)
+    track.update(0.0, np.array([1.0, 0.8, 0.0]))
+    evaluator = Evaluator(scenario.robot, Scene((Obstacle("ball", Sphere(0.15), track),)), scenario.index,
+                          scenario.potential)
+    planner = WindowPlanner(scenario.robot, evaluator, PlanTiming(replan_period=0.5, window=1.0))
+    q = np.array(scenario.q0, dtype=float)
+    return planner, ControlState(q, 0.0, kinematics(scenario.robot, q[None]), scenario.path, DT, frame_due=True)
+
+
+def test_a_window_the_margins_close_is_planned_with_the_obstacle_at_its_predicted_size() -> None:
+    """With a 0.2 m margin the ball reaches within 12 mm of the arm and no motion gets through the window: the plan
+    is then the one made without the margin (the same bits as with no margin at all), and it is counted; with a
+    0.05 m margin a motion gets through, and that plan (another one) is kept. The margins are back afterwards."""
+    bare, state = _planner_around_an_observed_ball(0.0)
+    closed, _ = _planner_around_an_observed_ball(0.2)
+    open_, _ = _planner_around_an_observed_ball(0.05)
+    plans = {name: planner.plan(state) for name, planner in (("bare", bare), ("closed", closed), ("open", open_))}
+    assert (bare.plans_without_margins, closed.plans_without_margins, open_.plans_without_margins) == (0, 1, 0)
+    np.testing.assert_array_equal(plans["closed"].q, plans["bare"].q)
+    assert plans["closed"].min_S == plans["bare"].min_S
+    assert closed.planned is not None and closed.planned.exists
+    assert plans["open"].min_S != plans["bare"].min_S  # the margin counted: another route
+    distance = closed.evaluator(state.q, 0.0).min_distance[0]
+    assert distance == pytest.approx(bare.evaluator(state.q, 0.0).min_distance[0] - 0.2)

@@ -11,7 +11,7 @@ import pytest
 
 import previewctl as pc
 from previewctl.errors import ObservationError, UnknownNameError
-from previewctl.index.evaluator import Evaluator
+from previewctl.index.evaluator import Evaluator, Method
 from previewctl.robot.model import Robot
 from previewctl.scene.clearance import Clearance
 from previewctl.sensing.track import Track
@@ -173,6 +173,23 @@ def test_distances_to_an_observed_obstacle_are_those_to_it_inflated_by_its_margi
                                general[1](Q, 0.3, exact_below=0.05).link_distances, atol=1e-9)
     planar = [Evaluator(planar4, s, method="planar") for s in (observed, grown)]
     np.testing.assert_allclose(planar[0](Q, 0.3).link_distances, planar[1](Q, 0.3).link_distances, atol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["general", "planar"])
+def test_without_margins_an_observed_obstacle_counts_at_its_predicted_size(planar4: Robot, method: Method) -> None:
+    """Inside ``without_margins`` the distances are those to the bare ball, outside (and after an error inside) those
+    to the inflated one; a scene with no prediction has nothing to drop."""
+    observed, grown = inflated(planar4, 0.07)
+    bare = pc.Scene((pc.Obstacle("ball", pc.Sphere(0.1), pc.Static([1.0, 0.6, 0.0])),))
+    Q = np.random.default_rng(3).uniform(-np.pi, np.pi, (20, planar4.nq))
+    evaluator, to_bare, to_grown = (Evaluator(planar4, s, method=method) for s in (observed, bare, grown))
+    assert evaluator.predicts and not to_bare.predicts
+    with evaluator.without_margins():
+        np.testing.assert_allclose(evaluator(Q, 0.3).link_distances, to_bare(Q, 0.3).link_distances, atol=1e-9)
+    np.testing.assert_allclose(evaluator(Q, 0.3).link_distances, to_grown(Q, 0.3).link_distances, atol=1e-9)
+    with pytest.raises(RuntimeError), evaluator.without_margins():
+        raise RuntimeError("a search failed")
+    np.testing.assert_allclose(evaluator(Q, 0.3).link_distances, to_grown(Q, 0.3).link_distances, atol=1e-9)
 
 
 def test_a_new_observation_moves_the_obstacle_at_the_same_time(planar4: Robot) -> None:

@@ -9,6 +9,13 @@ whole rest of the path: the non-causal ``oracle``), and replans every ``replan_p
 * on a spatial arm, by the sampled forward search (:func:`previewctl.search.roadmap.roadmap_over_time`), its samples
   0.05 s apart: checked at its samples only, and not complete ("none found" only means that its beam found none).
 
+With observed obstacles (:mod:`previewctl.sensing`) the plan keeps each predicted obstacle inflated by its margin. The
+margin is insurance against a wrong prediction, not a certainty: when no motion gets through the window with the
+margins, the plan is made again with the obstacles at their predicted size, and that plan is followed if a motion
+gets through (:attr:`WindowPlanner.plans_without_margins` counts them); a route that is free if the prediction holds
+beats one certain to end (the choice: docs/decisions.md#plans-without-the-margins-issue-33). The QP keeps its own
+margin at the present.
+
 A plan made at ``t`` is followed from ``t + latency`` (a planner beside the control loop; the first at once), or with
 the ``"measured"`` latency from ``t`` plus its own CPU time rounded up to whole control periods. The
 plan's configuration at any time, :meth:`WindowPlanner.point`, is linear between samples, unwrapped along the motion
@@ -124,6 +131,7 @@ class WindowPlanner:
         planned: the DP result of the last plan made, which may not be followed yet (``None`` on a spatial arm).
         goal: ``(level, index)`` of the goal the last plan made heads for (``goals[level].q[index]``), or ``None``.
         costs: the CPU time [s] of each plan made, in order.
+        plans_without_margins: how many plans were made without the predicted obstacles' margins (module docstring).
     """
 
     def __init__(
@@ -139,6 +147,7 @@ class WindowPlanner:
     ) -> None:
         self.robot, self.evaluator, self.timing, self.clock = robot, evaluator, timing, clock
         self.costs: list[float] = []
+        self.plans_without_margins = 0
         windowed = timing.window is not None
         self.options = options or (HORIZON_OPTIONS if windowed else ORACLE_OPTIONS)
         self.roadmap = roadmap or (HORIZON_ROADMAP if windowed else RoadmapOptions())
@@ -167,17 +176,31 @@ class WindowPlanner:
 
     def _search(self, state: ControlState,
                 goals: Sequence[Goals]) -> tuple[ReachMotion, ReachResult | None, tuple[int, int] | None]:
-        """The plan from ``state``: its motion, DP result (``None`` on a spatial arm) and goal (:meth:`plan`)."""
+        """The plan from ``state``: its motion, DP result (``None`` on a spatial arm) and goal (:meth:`plan`); if no
+        motion gets through the window with the predicted obstacles inflated by their margins, the plan without the
+        margins when one gets through (module docstring)."""
+        motion, result, goal, through = self._find(state, goals)
+        if not through and self.evaluator.predicts:
+            with self.evaluator.without_margins():
+                bare = self._find(state, goals)
+            if bare[3]:
+                self.plans_without_margins += 1
+                motion, result, goal, _ = bare
+        return motion, result, goal
+
+    def _find(self, state: ControlState, goals: Sequence[Goals]
+              ) -> tuple[ReachMotion, ReachResult | None, tuple[int, int] | None, bool]:
+        """The search's plan from ``state`` (:meth:`_search`), and whether its motion gets through the window."""
         t, q = state.t, state.q
         horizon = state.path.end_time - t
         if self.timing.window is not None:
             horizon = min(horizon, self.timing.window)
         if horizon <= 0:  # nothing left to track: hold q (no DP result, so no goal of an earlier plan either)
-            return _hold(t, q), None, None
+            return _hold(t, q), None, None, True
         if self.robot.planar is None:  # a spatial arm: the sampled forward search
             found = roadmap_over_time(self.robot, self.evaluator, state.path, q, horizon, self.roadmap, t_start=t,
                                       goals=goals)
-            return found.motion, None, found.goal
+            return found.motion, None, found.goal, found.exists
         options = self.options
         if self.timing.window is not None:
             options = replace(options, steps=min(HORIZON_MAX_STEPS, max(1, round(horizon / HORIZON_STEP))))
@@ -187,10 +210,10 @@ class WindowPlanner:
         if math.isfinite(slowest) and slowest > 0 and self.robot.nq > 2:
             fit = math.floor(horizon * slowest * options.velocity_scale / math.radians(options.resolution_deg) + 1e-9)
             if fit < 1:  # too little path left for a joint to move one grid cell: no step to plan
-                return _hold(t, q), None, None
+                return _hold(t, q), None, None, True
             options = replace(options, steps=min(options.steps, fit))
         result = reach_over_time(self.robot, self.evaluator, state.path, q, horizon, options, t_start=t, goals=goals)
-        return result.motion, result, result.goal
+        return result.motion, result, result.goal, result.exists
 
     def _made(self, state: ControlState, motion: ReachMotion, result: ReachResult | None,
               goal: tuple[int, int] | None, cost: float) -> ReachMotion:

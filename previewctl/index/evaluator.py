@@ -27,6 +27,8 @@ which leaves ``S`` the same bit for bit (the potential is 0 beyond ``d_0``) at a
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, fields
 from typing import Literal
 
@@ -113,6 +115,7 @@ class Evaluator:
         self.method: Method = method
         self.data = robot.model.createData()
         self.clearance = Clearance(robot, self.scene)
+        self._margins = True  # whether predicted obstacles are inflated by their margins (without_margins())
         self._self = self.clearance.self_clearance
         # the reader also reads the placements of the joints that carry self or guarded geometry, for their bounds
         joints = sorted(set(self._self.joints) | set(self.clearance.joints))
@@ -140,6 +143,23 @@ class Evaluator:
                 return None
             kernels.append(kernel)
         return kernels
+
+    @property
+    def predicts(self) -> bool:
+        """Whether some obstacle of the scene is a prediction (:class:`~previewctl.scene.motion.Uncertain`), inflated
+        by its margin."""
+        return any(isinstance(o.motion, Uncertain) for o in self.scene.obstacles)
+
+    @contextmanager
+    def without_margins(self) -> Iterator[None]:
+        """Within the block, predicted obstacles count at their predicted size, not inflated by their margins."""
+        self._margins = False
+        self.clearance.use_margins(False)
+        try:
+            yield
+        finally:
+            self._margins = True
+            self.clearance.use_margins(True)
 
     def uses_planar_path(self, t: float = 0.0) -> bool:
         """Whether a call at time ``t`` [s] takes the vectorised planar path."""
@@ -216,7 +236,7 @@ class Evaluator:
             capsule_d = np.full((Q.shape[0], len(chain.link_index)), np.inf)
             for kernel, obstacle in zip(kernels, self.scene.obstacles, strict=True):
                 d = planar_kernels.apply(kernel, a, b, chain.link_radii)
-                if isinstance(obstacle.motion, Uncertain):  # a predicted obstacle, inflated by its margin
+                if self._margins and isinstance(obstacle.motion, Uncertain):  # a prediction, inflated by its margin
                     d -= margin_at(obstacle.motion, t)
                 if obstacle.work_surface:
                     d[:, self._hand_slots] = np.inf  # the hand may touch the object it works on

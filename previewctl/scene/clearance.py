@@ -16,6 +16,7 @@ points lie on the inflated surface.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -143,6 +144,7 @@ class Clearance:
         self._pair_capsule_reach = np.array([c[3] for c in robot_covers])[self._pair_geometry] + obstacle_radius
         self._uncertain = [k for k, o in enumerate(scene.obstacles) if isinstance(o.motion, Uncertain)]
         self._pair_margin = np.zeros(len(pair_links))  # [m] each pair's obstacle inflation at the scene's time
+        self._margins = True  # whether predicted obstacles are inflated (use_margins())
         self._revisions = self.revisions()
         self._moving = [k for k, o in enumerate(scene.obstacles) if not isinstance(o.motion, Static)]
         self._obstacle_centres = np.array([self._centre(k, o.placement(0.0)) for k, o in enumerate(scene.obstacles)
@@ -182,11 +184,18 @@ class Clearance:
             self._obstacle_centres[k] = self._centre(k, placement)
         self._margins_at(t)
 
+    def use_margins(self, on: bool) -> None:
+        """Inflate the predicted obstacles by their margins (``on``, the default) or take them at their predicted
+        size, from the next :meth:`set_time` on."""
+        if on != self._margins:
+            self._margins, self._time = on, math.nan  # the placements and margins are read again
+
     def _margins_at(self, t: float) -> None:
-        """Each pair's inflation [m] at time ``t`` [s]: its obstacle's margin (0 but for predicted obstacles)."""
+        """Each pair's inflation [m] at time ``t`` [s]: its obstacle's margin (0 but for predicted obstacles, and with
+        the margins off)."""
         if self._uncertain:
-            margins = np.array([margin_at(o.motion, t) for o in self.scene.obstacles]).reshape(-1)
-            self._pair_margin = margins[self.pair_obstacles]
+            margins = np.array([margin_at(o.motion, t) if self._margins else 0.0 for o in self.scene.obstacles])
+            self._pair_margin = margins.reshape(-1)[self.pair_obstacles]
 
     def _centre(self, k: int, placement: pin.SE3) -> Array:
         """Obstacle ``k``'s cover centre [m] in the world ``(3,)`` when it is at ``placement``."""
