@@ -115,7 +115,6 @@ class Evaluator:
         self.method: Method = method
         self.data = robot.model.createData()
         self.clearance = Clearance(robot, self.scene)
-        self._margins = True  # whether predicted obstacles are inflated by their margins (without_margins())
         self._self = self.clearance.self_clearance
         # the reader also reads the placements of the joints that carry self or guarded geometry, for their bounds
         joints = sorted(set(self._self.joints) | set(self.clearance.joints))
@@ -148,17 +147,16 @@ class Evaluator:
     def predicts(self) -> bool:
         """Whether some obstacle of the scene is a prediction (:class:`~previewctl.scene.motion.Uncertain`), inflated
         by its margin."""
-        return any(isinstance(o.motion, Uncertain) for o in self.scene.obstacles)
+        return self.clearance.predicts
 
     @contextmanager
     def without_margins(self) -> Iterator[None]:
-        """Within the block, predicted obstacles count at their predicted size, not inflated by their margins."""
-        self._margins = False
+        """Within the block, predicted obstacles count at their predicted size, not inflated by their margins (on both
+        paths: the clearance's switch, which the planar path reads too)."""
         self.clearance.use_margins(False)
         try:
             yield
         finally:
-            self._margins = True
             self.clearance.use_margins(True)
 
     def uses_planar_path(self, t: float = 0.0) -> bool:
@@ -234,9 +232,10 @@ class Evaluator:
         if self.scene.obstacles:
             a, b = arm.link_segments(points, trig)
             capsule_d = np.full((Q.shape[0], len(chain.link_index)), np.inf)
+            inflate = self.clearance.margins  # off within without_margins()
             for kernel, obstacle in zip(kernels, self.scene.obstacles, strict=True):
                 d = planar_kernels.apply(kernel, a, b, chain.link_radii)
-                if self._margins and isinstance(obstacle.motion, Uncertain):  # a prediction, inflated by its margin
+                if inflate and isinstance(obstacle.motion, Uncertain):  # a predicted obstacle, inflated by its margin
                     d -= margin_at(obstacle.motion, t)
                 if obstacle.work_surface:
                     d[:, self._hand_slots] = np.inf  # the hand may touch the object it works on

@@ -144,7 +144,7 @@ class Clearance:
         self._pair_capsule_reach = np.array([c[3] for c in robot_covers])[self._pair_geometry] + obstacle_radius
         self._uncertain = [k for k, o in enumerate(scene.obstacles) if isinstance(o.motion, Uncertain)]
         self._pair_margin = np.zeros(len(pair_links))  # [m] each pair's obstacle inflation at the scene's time
-        self._margins = True  # whether predicted obstacles are inflated (use_margins())
+        self._margins = True  # whether predicted obstacles are inflated (use_margins(), margins)
         self._revisions = self.revisions()
         self._moving = [k for k, o in enumerate(scene.obstacles) if not isinstance(o.motion, Static)]
         self._obstacle_centres = np.array([self._centre(k, o.placement(0.0)) for k, o in enumerate(scene.obstacles)
@@ -183,6 +183,16 @@ class Clearance:
             objects[self._obstacle_ids[k]].placement = placement
             self._obstacle_centres[k] = self._centre(k, placement)
         self._margins_at(t)
+
+    @property
+    def predicts(self) -> bool:
+        """Whether some obstacle of the scene is a prediction (:class:`~previewctl.scene.motion.Uncertain`)."""
+        return bool(self._uncertain)
+
+    @property
+    def margins(self) -> bool:
+        """Whether the predicted obstacles are inflated by their margins (:meth:`use_margins`)."""
+        return self._margins
 
     def use_margins(self, on: bool) -> None:
         """Inflate the predicted obstacles by their margins (``on``, the default) or take them at their predicted
