@@ -73,6 +73,8 @@ def measure(scenario: Scenario, cycles: int, mode: str, apart: bool | None = Non
             info = ctrl.last_info
             k += 1
             if ready is None:  # qp: its first step (the compiled kernels' load) is not measured
+                if info.worker_error is not None:  # lost before its first answer: nothing will come
+                    raise SystemExit(f"{scenario.name}, {mode}: {info.worker_error}")
                 if mode == "qp" or info.plan_age is not None:
                     ready = k
                 continue
