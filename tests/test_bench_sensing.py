@@ -7,16 +7,20 @@ import dataclasses
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from previewctl.bench.keep import run_folder
 from previewctl.bench.report import write_report
 from previewctl.bench.results import read_records
-from previewctl.bench.runs import OBSERVED_SENSING, RunSpec, record_key, sensing_summary, simulate_spec
-from previewctl.bench.scenes import BenchScene
+from previewctl.bench.robots import cached_robot, profile
+from previewctl.bench.runs import OBSERVED_SENSING, RunSpec, record_key, sensing_summary, settings_hash, simulate_spec
+from previewctl.bench.scenes import BenchScene, draw_document, generate
+from previewctl.bench.settings import SceneSettings
 from previewctl.bench.sweep import Sweep
 from previewctl.cli.main import main
 from previewctl.errors import ParameterError, UnknownNameError
+from previewctl.scene.file import motion_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,6 +90,7 @@ def test_bench_help_names_the_sensing_and_motion_flags(capsys: pytest.CaptureFix
     text = " ".join(capsys.readouterr().out.split())
     assert "--sensing NAMES" in text and "none, observed" in text and "30 Hz, 5 mm noise, 50 ms latency" in text
     assert "--motions KIND" in text and "constant, surprise" in text
+    assert "--history S" in text and "already observes them" in text
 
 
 def test_a_tiny_observed_sweep_of_surprise_scenes_end_to_end(
@@ -113,3 +118,47 @@ def test_a_tiny_observed_sweep_of_surprise_scenes_end_to_end(
     _, result, _ = simulate_spec(spec, BenchScene.from_record(scene))
     assert result.summary()["max_hand_error"] == pytest.approx(observed["max_hand_error"], abs=1e-12)
     assert result.summary()["observations"] > 0
+
+
+# ------------------------------------------------------------------------------------ a sensor running before the start
+
+
+def test_a_history_moves_the_obstacles_before_the_start_and_not_after() -> None:
+    arm, prof = cached_robot("planar4"), profile("planar4")
+    cold, warm = SceneSettings(duration=3.0), SceneSettings(duration=3.0, history=1.0)
+    documents = [draw_document(arm, "planar4", prof, np.random.default_rng(7), s, "draw") for s in (cold, warm)]
+    times = np.linspace(0.0, 3.0, 31)
+    for before, after in zip(documents[0]["obstacles"], documents[1]["obstacles"], strict=True):
+        moving = motion_from_dict(after["motion"], "motion")
+        still = motion_from_dict(before["motion"], "motion")
+        np.testing.assert_array_equal(moving.positions(times), still.positions(times))  # the same run from t = 0
+        velocity = np.asarray(after["motion"]["velocity"])
+        np.testing.assert_allclose(moving.positions(np.array([-0.5]))[0, :2], still.positions(np.array([0.0]))[0, :2]
+                                   - 0.5 * velocity, atol=1e-12)  # seen moving before it
+        np.testing.assert_array_equal(still.positions(np.array([-0.5])), still.positions(np.array([0.0])))
+    assert settings_hash("planar4", 0, warm) != settings_hash("planar4", 0, cold)
+    assert settings_hash("planar4", 0, SceneSettings()) == "cdae7f6ae12f"  # results from before keep their key
+    with pytest.raises(ParameterError, match="history"):
+        SceneSettings(history=-1.0)
+
+
+def test_an_observed_run_of_a_scene_with_a_history_observes_from_before_the_start() -> None:
+    scene = generate("planar4", 0, 0, SceneSettings(duration=2.0, history=1.0))
+    assert scene.history == 1.0
+    assert BenchScene.from_record({**dataclasses.asdict(scene), "settings": "abc"}).history == 1.0
+    assert BenchScene.from_record({k: v for k, v in dataclasses.asdict(scene).items() if k != "history"}).history == 0
+    settings = settings_hash("planar4", 0, SceneSettings(duration=2.0, history=1.0))
+    scenario, result, _ = simulate_spec(RunSpec("planar4", 0, 0, "qp", "qp", settings, 0, "inline", "observed"),
+                                        scene)
+    assert scenario.sensing is not None and scenario.sensing.history == 1.0
+    assert "observed from 1 s before the start" in sensing_summary(scenario.sensing)
+    # 30 Hz over [-1 s, 2 s] per obstacle, all delivered (no dropout): more than the run alone would get
+    assert result.summary()["observations"] >= 30 * 3 * len(scenario.scene.obstacles) - len(scenario.scene.obstacles)
+    known, _, _ = simulate_spec(RunSpec("planar4", 0, 0, "qp", "qp", settings, 0, "inline", "none"), scene)
+    assert known.sensing is None
+
+
+def test_the_report_names_the_history_it_ran_with(tmp_path: Path) -> None:
+    records = [{**_record(s, "qp", True), "history": 1.0} for s in range(2)]
+    assert "--history 1`" in write_report(records, [], tmp_path)[0].read_text()
+    assert "--history" not in write_report([_record(s, "qp", True) for s in range(2)], [], tmp_path)[0].read_text()

@@ -121,6 +121,8 @@ def _provenance(records: list[dict[str, Any]]) -> list[str]:
             command += f" --sensing {','.join(sensings)}" if sensings != [KNOWN] else ""
             motions = sorted({r.get("motions", "constant") for r in mine})
             command += f" --motions {','.join(motions)}" if motions != ["constant"] else ""
+            histories = sorted({float(r.get("history", 0.0)) for r in mine})
+            command += f" --history {','.join(f'{h:g}' for h in histories)}" if histories != [0.0] else ""
             lines.append(f"| {robot} | {_span(scenes)} | {scene_seed} | {_span([r['seed'] for r in mine])} | "
                          f"{', '.join(controllers)} | {', '.join(executions)} | `{command}` |")
     return [*lines, ""]

@@ -121,11 +121,15 @@ def record_key(record: dict[str, Any]) -> tuple[Any, ...]:
     return tuple(record.get(name, _KEY_DEFAULTS.get(name)) for name in KEY_FIELDS)
 
 
+_ADDED_DEFAULTS = (("motions", "constant"), ("history", 0.0))
+"""Settings added after results were recorded, at their defaults: left out of the hash, so that those results keep
+their key."""
+
+
 def settings_hash(robot: str, scene_seed: int, settings: SceneSettings) -> str:
     """12 hex digits that change with anything that changes a run of ``robot`` but its key's other fields (a URDF
     file's content among them)."""
-    drawn = {k: v for k, v in dataclasses.asdict(settings).items() if (k, v) != ("motions", "constant")}  # as before
-    # surprise scenes existed: constant-velocity scenes keep their hash, and their results
+    drawn = {k: v for k, v in dataclasses.asdict(settings).items() if (k, v) not in _ADDED_DEFAULTS}
     described = {"robot": robot, "scene_seed": scene_seed, "settings": drawn,
                  "profile": dataclasses.asdict(profile(robot)), "generator": GENERATOR_VERSION}
     digest = urdf_digest(robot)
@@ -155,7 +159,8 @@ def simulate_spec(spec: RunSpec, scene: BenchScene) -> tuple[Scenario, RunResult
     params = dataclasses.replace(base.controller.params, execution=execution)
     if spec.latency == MEASURED:
         params = dataclasses.replace(params, plan_latency=MEASURED)
-    sensing = dataclasses.replace(OBSERVED_SENSING, seed=spec.scene) if spec.sensing == OBSERVED else None
+    sensing = (dataclasses.replace(OBSERVED_SENSING, seed=spec.scene, history=scene.history)
+               if spec.sensing == OBSERVED else None)
     exact = Evaluator(cached_robot(spec.robot, "mesh"), base.scene, base.index, base.potential)
     if spec.controller in BARRIER_GAINS:  # perfect foresight only (run_sensing)
         scenario = dataclasses.replace(base, controller=ControllerSpec(base.controller.name, params))

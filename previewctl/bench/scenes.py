@@ -69,6 +69,8 @@ class BenchScene:
         oracle_run: the witness's ``oracle`` run (planar arms; see
             :class:`~previewctl.bench.witness.Witnessed`), which the sweep records instead of running it again.
         oracle_plan: the plan that run followed, which the scene's other ``oracle`` runs follow too.
+        history: how long [s] before ``t = 0`` its obstacles already move and an observed run's sensor observes
+            (:attr:`SceneSettings.history <previewctl.bench.settings.SceneSettings.history>`).
     """
 
     robot: str
@@ -79,6 +81,7 @@ class BenchScene:
     witness: str
     oracle_run: dict[str, Any] | None = None
     oracle_plan: dict[str, Any] | None = None
+    history: float = 0.0
 
     def scenario(self) -> Scenario:
         """The scenario, through the scenario files' validation."""
@@ -116,7 +119,7 @@ def generate(robot: str, index: int, seed: int = 0, settings: SceneSettings | No
         found = witness(scenario, settings)
         if found.holds:
             return BenchScene(robot, index, seed, document, draw, found.sentence, found.oracle_run,
-                              found.oracle_plan)
+                              found.oracle_plan, settings.history)
     raise ScenarioError(f"{label} scene {index} (seed {seed}): the witness rejected all {settings.max_draws} draws")
 
 
@@ -239,5 +242,6 @@ def _crossing(arm: Robot, prof: Profile, rng: np.random.Generator, q: Array, t_c
     if settings.motions == "surprise":
         duration = settings.duration if settings.duration is not None else prof.duration
         return {"name": name, **shape, "motion": surprise(rng, start, velocity, point, t_c, radius, duration, dims)}
+    moving = {"start_time": -settings.history} if settings.history else {}  # already moving: the same from t = 0 on
     return {"name": name, **shape, "motion": {"type": "constant_velocity", "position": [float(v) for v in start[:dims]],
-                                              "velocity": [float(v) for v in velocity[:dims]]}}
+                                              "velocity": [float(v) for v in velocity[:dims]], **moving}}

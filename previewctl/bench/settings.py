@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Literal, get_args
 
 from previewctl.errors import ParameterError
-from previewctl.validation import Checked, Count, Flag, Positive
+from previewctl.validation import Checked, Count, Flag, NonNegative, Positive
 
 MotionKind = Literal["constant", "surprise"]
 """How the crossing obstacles of bench scenes move: at ``constant`` velocity, or with a ``surprise``
@@ -32,6 +32,10 @@ class SceneSettings(Checked):
             the sampled search's on spatial ones (without it, a spatial scene passes on the necessary check alone).
         witness_tolerance: the largest hand error [m] of that run.
         motions: how the crossing obstacles move, one of :data:`MOTION_KINDS`.
+        history: how long [s] before ``t = 0`` the crossing obstacles already move, and the sensor of the observed
+            runs already observes them (:attr:`Sensing.history <previewctl.sensing.options.Sensing.history>`), as a
+            robot's camera runs before its task starts; every run from ``t = 0`` on sees the same obstacles. 0: both
+            start with the run (the obstacles stand still before it).
     """
 
     duration: Positive | None = None
@@ -43,6 +47,7 @@ class SceneSettings(Checked):
     witness_follow: Flag = True
     witness_tolerance: Positive = 1e-3
     motions: MotionKind = "constant"
+    history: NonNegative = 0.0
 
     def check(self) -> None:
         """A run of at least two control periods (each field is checked by its annotation first).

@@ -236,7 +236,7 @@ def run_sweep(sweep: Sweep, out: Path, client: Any, on_result: Callable[[dict[st
             if key not in known:
                 append_record(scenes_file, {**dataclasses.asdict(fetched[key]), "settings": spec.settings})
         append_record(results, {**record, "scene_rejected": fetched[key].rejected,
-                                "motions": sweep.settings.motions, **stamp()})
+                                "motions": sweep.settings.motions, "history": sweep.settings.history, **stamp()})
         outcome.done += 1
         if on_result is not None:
             on_result(record)

@@ -79,6 +79,10 @@ def add_parser(commands: Commands) -> None:
            help=f"how the crossing obstacles move (default constant): {', '.join(MOTION_KINDS)}; surprise: on the "
            "way to the arm each turns, stops, changes speed or wanders (seeded), which a constant-velocity prediction "
            "does not foresee; the witness keeps the true future")
+    option("--history", type=float, default=0.0, metavar="S",
+           help="how long [s] before each run starts the crossing obstacles already move and the observed runs' "
+           "sensor already observes them, as a robot's camera runs before its task (default 0: both start with the "
+           "run); the runs from t = 0 on see the same obstacles")
     option("--scene-seed", type=int, default=0, metavar="N", help="seed the scenes are drawn with (default 0)")
     option("--duration", type=float, metavar="S", help="run length [s] (default: 8 planar4, 10 spatial arms)")
     option("--out", default="out/bench", metavar="DIR", help="output folder (default out/bench)")
@@ -118,7 +122,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             raise ParameterError("--workers sizes a local cluster; it cannot be used with --scheduler")
         sweep = Sweep(robots=_names(args.robot), scenes=args.scenes, controllers=_names(args.controller),
                       executions=_names(args.execution), seeds=args.seed, scene_seed=args.scene_seed,
-                      settings=SceneSettings(duration=args.duration, motions=args.motions),
+                      settings=SceneSettings(duration=args.duration, motions=args.motions, history=args.history),
                       latencies=_names(args.latency), sensings=_names(args.sensing))
         start = time.perf_counter()
         bars: list[tqdm] = []
