@@ -152,12 +152,13 @@ class Evaluator:
     @contextmanager
     def without_margins(self) -> Iterator[None]:
         """Within the block, predicted obstacles count at their predicted size, not inflated by their margins (on both
-        paths: the clearance's switch, which the planar path reads too)."""
+        paths: the clearance's switch, which the planar path reads too); afterwards, as they were before it."""
+        before = self.clearance.margins
         self.clearance.use_margins(False)
         try:
             yield
         finally:
-            self.clearance.use_margins(True)
+            self.clearance.use_margins(before)
 
     def uses_planar_path(self, t: float = 0.0) -> bool:
         """Whether a call at time ``t`` [s] takes the vectorised planar path."""
