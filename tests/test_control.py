@@ -3,6 +3,7 @@ null-space input, limits, eqs. 20-21 with stand-in searches, the reachability ro
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any, get_args
 
@@ -25,8 +26,9 @@ from previewctl.control.params import (
 )
 from previewctl.control.planner import PeakPlanner
 from previewctl.control.sweeps import SweepRoutes
-from previewctl.control.tracking import damped_pseudo_inverse, null_space_budget, reference
+from previewctl.control.tracking import _SQUARE, _resolved, damped_pseudo_inverse, null_space_budget, reference
 from previewctl.errors import ParameterError
+from previewctl.index.amsi import RANK_TOLERANCE, null_space_projector
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.load import load_robot
 from previewctl.kinematics import integrate, kinematics
@@ -145,6 +147,40 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
     path = HandPath(np.array([[3.0, 0.0], [2.9, 0.0]]), 1.0)  # pull the hand inwards along x
     qdot, info = track(planar4, state_for(planar4, np.zeros(4), path), np.zeros(4), ControllerParams())
     assert np.isfinite(qdot).all() and np.abs(info.reference.qdot_task).max() < 10.0
+
+
+
+def _numpy_eq19(J: NDArray[np.float64], xdot: NDArray[np.float64], v: NDArray[np.float64], damping: float,
+                threshold: float) -> tuple[NDArray[np.float64], float, NDArray[np.float64], NDArray[np.float64]]:
+    """Eq. 19's linear algebra as numpy expressions: what the compiled kernel replaced, whose bits it must keep."""
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    smin = float(s[-1])
+    lam2 = damping**2 * (1.0 - (smin / threshold) ** 2) if smin < threshold else 0.0
+    denom = s**2 + lam2
+    J_sharp = (Vt.T * np.divide(s, denom, out=np.zeros_like(s), where=denom > 0)) @ U.T
+    return J_sharp, math.sqrt(lam2), null_space_projector(J) @ v, J_sharp @ xdot
+
+
+@pytest.mark.parametrize("shape", [(2, 3), (2, 4), (3, 6), (3, 7), (6, 7), (6, 9)])
+def test_compiled_eq19_keeps_the_bits_of_numpy(shape: tuple[int, int]) -> None:
+    """The kernel equals numpy's expressions bit for bit (the golden runs rely on it), near singularities too, where
+    ``λ²``'s squares are libm's ``pow`` (one in a few thousand differs from ``x * x`` in the last bit)."""
+    rng = np.random.default_rng(7)
+    m, n = shape
+    damped = 0
+    for k in range(1500):
+        J = rng.normal(size=shape) * rng.choice([1e-3, 0.05, 1.0])
+        if k % 3 == 0:  # two rows almost parallel: sigma_min below the threshold, so damped
+            J[-1] = J[0] * (1.0 + 1e-4 * rng.normal())
+        xdot, v = rng.normal(size=m), rng.normal(size=n)
+        expected = _numpy_eq19(J, xdot, v, 0.05, 0.05)
+        got = _resolved(J, xdot, v, 0.05, 0.05, RANK_TOLERANCE, _SQUARE)
+        for name, a, b in zip(("J#", "lambda", "N v", "J# xdot"), expected, got, strict=True):
+            assert np.array_equal(a, b), f"{name} differs at draw {k}: {a} != {b}"
+        J_sharp, lam = damped_pseudo_inverse(J, 0.05, 0.05)
+        assert np.array_equal(J_sharp, expected[0]) and lam == expected[1]
+        damped += lam > 0.0
+    assert damped > 300  # the damped branch is checked too
 
 
 # ----------------------------------------------------------------------------------- limits

@@ -34,6 +34,9 @@ from previewctl.robot.model import Robot
 from previewctl.types import Array
 from previewctl.validation import Checked, Finite, NonNegative, Positive, interval
 
+RANK_TOLERANCE = 1e-9
+"""Singular values of ``J_n`` below this share of ``σ_max`` count as zero (eq. 3's ``J_n⁺``; the default)."""
+
 
 def unit_ball_volume(p: int) -> float:
     """Volume of the unit ball in ``p`` dimensions, eq. 14: c_1 = 2, c_2 = pi, c_3 = 4 pi / 3."""
@@ -53,7 +56,7 @@ class IndexParams(Checked):
 
     weights: tuple[NonNegative, ...] | None = None
     length_unit: Positive = 0.01
-    rank_tolerance: Annotated[Finite, interval(0, 1, "()")] = 1e-9
+    rank_tolerance: Annotated[Finite, interval(0, 1, "()")] = RANK_TOLERANCE
 
     def weight_vector(self, count: int) -> Array:
         """The weights ``a_i`` as an array of ``count`` entries."""
@@ -93,7 +96,7 @@ class AvoidanceResult:
     amsi: Array
 
 
-def gram_pseudo_inverse(J: Array, rank_tolerance: float = 1e-9) -> Array:
+def gram_pseudo_inverse(J: Array, rank_tolerance: float = RANK_TOLERANCE) -> Array:
     """``(J J^T)^+`` for ``J`` of shape ``(..., m, n)``; returns ``(..., m, m)``.
 
     Eigenvalues of ``J J^T`` below ``c * lambda_max`` count as zero, with ``c = max(rank_tolerance^2,
@@ -146,7 +149,7 @@ def _eigh_pseudo_inverse(G: Array, cutoff: float) -> Array:
     return (vec * inv[..., None, :]) @ np.swapaxes(vec, -1, -2)
 
 
-def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
+def null_space_projector(J: Array, rank_tolerance: float = RANK_TOLERANCE) -> Array:
     """``N = I - J^+ J`` for ``J`` of shape ``(..., m, n)``; returns ``(..., n, n)``.
 
     From the SVD ``J = U S V^T``: ``N = I - V_r V_r^T`` with the ``r`` singular values above
@@ -160,7 +163,7 @@ def null_space_projector(J: Array, rank_tolerance: float = 1e-9) -> Array:
     return projector_from_svd(s, Vt, rank_tolerance)
 
 
-def projector_from_svd(s: Array, Vt: Array, rank_tolerance: float = 1e-9) -> Array:
+def projector_from_svd(s: Array, Vt: Array, rank_tolerance: float = RANK_TOLERANCE) -> Array:
     """``N = I - V_r V_r^T`` of :func:`null_space_projector` from the singular values ``s`` ``(..., k)`` and ``V^T``
     ``(..., k, n)`` of an SVD of ``J`` taken already (one SVD then serves the pseudo-inverse too)."""
     V_r = Vt * (s > rank_tolerance * s[..., :1])[..., None]
