@@ -398,6 +398,37 @@ def test_frame_kinematics_equals_pinocchio(name: str, request: pytest.FixtureReq
             np.testing.assert_allclose(jacobians[b, k], expected, atol=1e-12, err_msg=model.frames[fid].name)
 
 
+@pytest.mark.parametrize("name", ["panda", "kinova", "planar4"])
+@pytest.mark.parametrize("batch", [1, 7])
+def test_frame_kinematics_keeps_the_bits_of_its_numpy_assembly(name: str, batch: int,
+                                                                request: pytest.FixtureRequest) -> None:
+    """The compiled assembly equals, bit for bit, the numpy expressions it replaced (the golden runs rely on it): the
+    frames with offsets, the universe and extra joints among the followed ones, and partial supports."""
+    from previewctl.kinematics import _SKEW_SIGNS, _SKEW_SLOTS, _SKEW_SOURCES, FrameKinematics
+
+    robot: Robot = request.getfixturevalue(name)
+    frame_ids = tuple(range(1, len(robot.model.frames)))
+    reader = FrameKinematics(robot.model, frame_ids, joints=(0, robot.model.njoints - 1, 1))
+    Q = robot.random_configurations(np.random.default_rng(batch), batch)
+    placements, jacobians = reader(Q)
+    followed, J = reader._pinocchio(Q, None)
+    followed = np.concatenate([np.broadcast_to(np.eye(4), (batch, 1, 4, 4)), followed], axis=1)
+    np.testing.assert_array_equal(reader.joint_placements, followed[:, reader._joint_slot])
+    frames = followed[:, reader._slot]
+    frames[:, reader._moved] = frames[:, reader._moved] @ reader._offset
+    K = len(frame_ids)
+    cross = np.zeros((batch, K, 9))
+    cross[:, :, _SKEW_SLOTS] = frames[:, :, _SKEW_SOURCES, 3] * _SKEW_SIGNS
+    expected = np.empty((batch, K, 6, robot.nv))
+    expected[:, :, :3] = (cross.reshape(batch, 3 * K, 3) @ J[:, 3:]).reshape(batch, K, 3, robot.nv)
+    expected[:, :, :3] += J[:, None, :3]
+    expected[:, :, 3:] = J[:, None, 3:]
+    expected *= reader._support
+    assert reader._universe and reader._moved.size and not reader._support.all()
+    np.testing.assert_array_equal(placements, frames)
+    np.testing.assert_array_equal(jacobians, expected)
+
+
 @pytest.mark.parametrize("m", [1, 2, 3, 6])
 def test_gram_pseudo_inverse_against_pinv(m: int) -> None:
     """(J J^T)^+ equals numpy's pinv for well-conditioned, ill-conditioned and rank-deficient J."""
