@@ -149,7 +149,6 @@ def test_damped_inverse_is_exact_away_from_singularities_and_bounded_at_one(plan
     assert np.isfinite(qdot).all() and np.abs(info.reference.qdot_task).max() < 10.0
 
 
-
 def _numpy_eq19(J: NDArray[np.float64], xdot: NDArray[np.float64], v: NDArray[np.float64], damping: float,
                 threshold: float) -> tuple[NDArray[np.float64], float, NDArray[np.float64], NDArray[np.float64]]:
     """Eq. 19's linear algebra as numpy expressions: what the compiled kernel replaced, whose bits it must keep."""
