@@ -45,7 +45,7 @@ import pinocchio as pin
 from previewctl.control.base import ControlState, Reference
 from previewctl.control.nullspace import LimitAvoidance
 from previewctl.control.params import ControllerParams
-from previewctl.index.amsi import RANK_TOLERANCE
+from previewctl.index.amsi import RANK_TOLERANCE, projector_from_svd_of_one
 from previewctl.kinematics import hand_placement
 from previewctl.path import HandPath
 from previewctl.robot.model import Robot
@@ -96,22 +96,13 @@ def _damped_from_svd(U: Array, s: Array, Vt: Array, damping: float, threshold: f
 
 
 @numba.njit(cache=True, nogil=True)
-def _projector(s: Array, Vt: Array, rank_tolerance: float) -> Array:  # pragma: no cover - compiled
-    """:func:`~previewctl.index.amsi.projector_from_svd` of one matrix (``s`` ``(k,)``, ``Vt`` ``(k, n)``), compiled:
-    the same arithmetic, so the same bits (a test checks them)."""
-    keep = s > rank_tolerance * s[0]
-    V_r = Vt * keep.reshape(-1, 1)
-    return np.eye(Vt.shape[1]) - V_r.T @ V_r
-
-
-@numba.njit(cache=True, nogil=True)
 def _resolved(J: Array, xdot: Array, v_total: Array, damping: float, threshold: float, rank_tolerance: float,
               square: float) -> tuple[Array, float, Array, Array]:  # pragma: no cover - compiled
     """Eq. 19's linear algebra in one compiled call (a Python step costs it about 25 µs warm and 100 µs with cold
     caches, numpy's SVD wrapper most): one SVD of ``J``, then ``(J#, λ, (I − J⁺J) v, J# ẋ)``."""
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     J_sharp, lam = _damped_from_svd(U, s, Vt, damping, threshold, square)
-    return J_sharp, lam, _projector(s, Vt, rank_tolerance) @ v_total, J_sharp @ xdot
+    return J_sharp, lam, projector_from_svd_of_one(s, Vt, rank_tolerance) @ v_total, J_sharp @ xdot
 
 
 def joint_velocity_bounds(robot: Robot, q: Array, dt: float) -> tuple[Array, Array]:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from math import gamma, pi
 from typing import Annotated
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -168,6 +169,15 @@ def projector_from_svd(s: Array, Vt: Array, rank_tolerance: float = RANK_TOLERAN
     ``(..., k, n)`` of an SVD of ``J`` taken already (one SVD then serves the pseudo-inverse too)."""
     V_r = Vt * (s > rank_tolerance * s[..., :1])[..., None]
     return np.eye(Vt.shape[-1]) - np.swapaxes(V_r, -1, -2) @ V_r
+
+
+@numba.njit(cache=True, nogil=True)
+def projector_from_svd_of_one(s: Array, Vt: Array, rank_tolerance: float) -> Array:  # pragma: no cover - compiled
+    """:func:`projector_from_svd` of one matrix (``s`` ``(k,)``, ``Vt`` ``(k, n)``), compiled for eq. 19's
+    once-per-cycle projector: the same arithmetic, so the same bits (a test checks them)."""
+    keep = s > rank_tolerance * s[0]
+    V_r = Vt * keep.reshape(-1, 1)
+    return np.eye(Vt.shape[1]) - V_r.T @ V_r
 
 
 def elementary_symmetric(G: Array, p: int) -> Array:
