@@ -195,6 +195,25 @@ def test_step_never_waits_for_a_held_worker_and_falls_back_to_qp() -> None:
         assert ctrl.last_info.plan_age is not None and ctrl.last_info.plan_age <= valid
 
 
+def test_a_rehearsal_takes_no_answer_and_sends_no_state() -> None:
+    held, q = Held(), np.array(Q0)
+    with stand_in_controller(worker_compute=held) as ctrl:
+        k = step_until(ctrl, 0, q, lambda info: not info.fallback)
+        held.go.clear()
+        k = step_until(ctrl, k, q, lambda info: held.blocked.value == 1)  # the worker holds a state
+        worker = ctrl.planning.worker  # type: ignore[union-attr]
+        k = step_until(ctrl, k, q, lambda info: worker.waiting)  # and a newer one waits in the loop's slot
+        answered, info = worker.answered, ctrl.last_info
+        held.go.set()
+        start = time.monotonic()
+        while time.monotonic() - start < 1.0:  # the answer comes meanwhile; rehearsals must leave it in the pipe
+            ctrl.rehearse()
+        assert worker.answered == answered and worker.busy and worker.waiting and ctrl.last_info is info
+        step_until(ctrl, k, q, lambda info: worker.answered > answered)  # a rehearsal that took it: no more answers
+        assert not worker.waiting  # the state in the slot went out once the answer came
+    ctrl.rehearse()  # closed: nothing to rehearse, no error
+
+
 @pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="reads a process's environment from /proc")
 def test_the_worker_runs_one_blas_thread_and_the_loop_keeps_its_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     from previewctl.control.worker import SINGLE_THREAD

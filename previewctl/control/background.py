@@ -631,7 +631,7 @@ class BackgroundPlanning:
             raise ConfigurationError("the planning worker was not started: start() starts it")
         self._posting = self._posting or state.frame_due
         if self._posting:
-            worker.post(state.q.copy(), state.t, observed)
+            worker.post(state.q, state.t, observed)
         for result in worker.exchange():
             if self._stale:
                 self._stale = False
@@ -657,7 +657,7 @@ class BackgroundPlanning:
             searched = self.searched
             news = (PlanNews([], 0, observed) if searched is None or searched.peaks is None
                     else PlanNews(searched.peaks, searched.frames, observed))
-            plans.post(state.q.copy(), state.t, news)
+            plans.post(state.q, state.t, news)
         for result in plans.exchange():
             if self._stale_plans:
                 self._stale_plans = False
@@ -694,6 +694,12 @@ class BackgroundPlanning:
         if self.follower is None:
             raise ConfigurationError("a plan came from the planning worker, but nothing follows plans here")
         return plan_points(self.follower, t, arms.preview_time, len(arms))
+
+    def rehearse(self) -> None:
+        """Run the code of the workers' exchanges without their messages (:meth:`PlanningWorker.rehearse`)."""
+        for worker in (self.worker, self.plans):
+            if worker is not None:
+                worker.rehearse()
 
     def close(self) -> None:
         """Stop the workers; no child process is left."""

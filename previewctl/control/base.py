@@ -159,6 +159,10 @@ class Planning(Protocol):
         latest result, without waiting."""
         ...
 
+    def rehearse(self) -> None:
+        """Run the code of an exchange without posting or taking anything (``Controller.rehearse``)."""
+        ...
+
     def close(self) -> None:
         """Stop the worker; no child process is left."""
         ...

@@ -273,10 +273,14 @@ class Controller:
         For a real-time loop that waits for its deadline: called shortly before it, it brings the step's code and data
         back into the core's caches, which a shared host's other work evicts during the wait (on the 2-core host of
         this project's measurements a paced planar step cost 2-2.5x an unpaced one: the Speed page). The next
-        :meth:`step` returns the same bits with or without it.
+        :meth:`step` returns the same bits with or without it. With background planning it also runs the code of the
+        worker's messages without sending or taking any (the pickling of the last state posted, the unpickling of the
+        last answer, a poll of the pipe).
         """
         if self._last_cycle is None:
             return
+        if self.planning is not None:
+            self.planning.rehearse()
         last, null = self._last_cycle
         state = replace(last, kin=kinematics(self.robot, last.kin.q, reader=self._reader), frame_due=False)
         if self.planning is not None and not self.last_info.fallback:  # the law only reads the worker's result
