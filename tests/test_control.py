@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from previewctl.control.base import ControlLaw, ControlState
 from previewctl.control.factory import compose, make_controller
 from previewctl.control.laws import Gradient, MultiPreview, Reach, SinglePreview
-from previewctl.control.nullspace import AmsipGradient, LimitAvoidance, wrapped_difference
+from previewctl.control.nullspace import AmsipGradient, LimitAvoidance, preview_pull, wrapped_difference
 from previewctl.control.params import (
     CONTROLLER_NAMES,
     PREVIEW_MODES,
@@ -180,6 +180,27 @@ def test_compiled_eq19_keeps_the_bits_of_numpy(shape: tuple[int, int]) -> None:
         assert np.array_equal(J_sharp, expected[0]) and lam == expected[1]
         damped += lam > 0.0
     assert damped > 300  # the damped branch is checked too
+
+
+@pytest.mark.parametrize("name", ["planar4", "panda"])
+def test_compiled_plan_pull_keeps_the_bits_of_pin_difference(name: str, request: pytest.FixtureRequest) -> None:
+    """On an arm of 1-dof joints, the pull toward a plan's points (every index kept) is compiled: it equals the sum of
+    ``k_i`` times ``pin.difference`` bit for bit, signed zeros included (the golden runs rely on it)."""
+    robot: Robot = request.getfixturevalue(name)
+    assert robot.joints.vector_space
+    rng = np.random.default_rng(11)
+    every = tuple(range(robot.nv))
+    for k in range(2000):
+        q = rng.uniform(-4.0, 4.0, robot.nq)
+        targets = rng.uniform(-4.0, 4.0, (int(rng.integers(1, 5)), robot.nq))
+        if k % 4 == 0:
+            targets[0] = q  # zero differences
+        weights = rng.uniform(0.0, 2.0, len(targets)) * rng.choice([0.0, 1.0, 1e-300], len(targets))
+        expected = np.zeros(robot.nv)
+        for weight, target in zip(weights, targets, strict=True):
+            expected += weight * pin.difference(robot.model, q, target)
+        got = preview_pull(robot, q, targets, weights, keep=every)
+        assert np.array_equal(got, expected) and np.array_equal(np.signbit(got), np.signbit(expected)), k
 
 
 # ----------------------------------------------------------------------------------- limits

@@ -748,15 +748,25 @@ def test_two_or_more_bits_matches_a_popcount_on_every_bit_position() -> None:
     assert two_or_more(F).tolist() == expected and sum(expected) > 200 and not any(two_or_more(F[1:65]))
 
 
-def test_motion_at_is_np_interp_bit_for_bit() -> None:
-    """``ReachMotion.at`` interpolates every joint at once with ``np.interp``'s arithmetic: the same bits, at the
-    samples, between them and outside (held)."""
+def test_motion_sample_is_np_interp_bit_for_bit() -> None:
+    """``ReachMotion.sample`` (compiled) and ``at`` interpolate every joint at once with ``np.interp``'s arithmetic, and
+    S as ``np.interp`` does: the same bits at the samples, between them and outside (held), NaN S included."""
     rng = np.random.default_rng(7)
-    for _ in range(200):
+    nan_between = 0
+    for k in range(300):
         times = np.unique(rng.uniform(0.0, 3.0, rng.integers(1, 9)))
         q = rng.normal(size=(times.size, 7)) * 3.0
+        S = rng.normal(size=times.size)
+        if k % 3 == 0:  # a held motion's S is NaN; here one sample's or all
+            S[rng.integers(0, times.size) if k % 2 else slice(None)] = np.nan
         ints = np.zeros(times.size, dtype=np.int64)
-        motion = ReachMotion(times, q, np.zeros(times.size), ints, ints, 0.0, 0.0)
-        for t in [*rng.uniform(-1.0, 4.0, 10), *times]:
+        motion = ReachMotion(times, q, S, ints, ints, 0.0, 0.0)
+        query = np.array([*rng.uniform(-1.0, 4.0, 10), *times])
+        got_q, got_S = motion.sample(query)
+        for i, t in enumerate(query):
             expected = np.array([np.interp(min(max(t, times[0]), times[-1]), times, column) for column in q.T])
+            np.testing.assert_array_equal(got_q[i], expected)
             np.testing.assert_array_equal(motion.at(t), expected)
+            np.testing.assert_array_equal(got_S[i], np.interp(t, times, S))
+            nan_between += bool(np.isnan(got_S[i]) and times[0] < t < times[-1] and not np.isnan(S).all())
+    assert nan_between > 20  # the NaN branches are checked too

@@ -284,6 +284,5 @@ class RoutePoints:
 def plan_points(planner: WindowPlanner, t: float, preview_time: float, count: int) -> Targets:
     """The plan's configurations at the preview times ``t + i t̃``, ``i = 1..count`` [s], as targets at full weight
     whose differences to the arm are plain (the plan is unwrapped along its motion)."""
-    points = [planner.configuration(t + (i + 1) * preview_time) for i in range(count)]
-    return Targets(np.array([arm for arm, _ in points]), np.array([S for _, S in points]),
-                   ramp=np.ones(count), keep=tuple(range(planner.robot.nv)))
+    q, S = planner.configurations(t + np.arange(1.0, count + 1.0) * preview_time)
+    return Targets(q, S, ramp=np.ones(count), keep=tuple(range(planner.robot.nv)))

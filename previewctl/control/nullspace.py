@@ -114,10 +114,24 @@ def preview_pull(robot: Robot, q: Array, targets: Array, weights: Array, *, keep
     :func:`wrapped_difference` takes it (``keep`` every index: plain differences, for targets unwrapped along a
     plan)."""
     pull = np.zeros(robot.nv)
+    if robot.joints.vector_space and keep == tuple(range(robot.nv)):  # plain differences, target - q: compiled
+        _plain_pull(np.asarray(q, dtype=float), np.asarray(targets, dtype=float), np.asarray(weights, dtype=float),
+                    pull)
+        return pull
     wrap = _wrapping(robot, keep)
     for k, target in zip(weights, targets, strict=True):
         pull += k * _wrapped(robot, q, target, wrap)
     return pull
+
+
+@numba.njit(cache=True, nogil=True)
+def _plain_pull(q: Array, targets: Array, weights: Array, pull: Array) -> None:  # pragma: no cover - compiled
+    """``pull += Σ_i k_i (q̃_i − q)`` on zeros: :func:`preview_pull` on an arm whose joints are all 1-dof (there
+    ``pin.difference`` is the plain difference) with no index wrapped, in numpy's order of operations (the same bits; a
+    test checks them)."""
+    for i in range(weights.size):
+        for j in range(q.size):
+            pull[j] += weights[i] * (targets[i, j] - q[j])
 
 
 class AmsipGradient:

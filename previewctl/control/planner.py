@@ -273,14 +273,20 @@ class WindowPlanner:
 
     def configuration(self, t: float) -> tuple[Array, float]:
         """The configuration ``(nq,)`` and S of :meth:`point` at ``t`` [s], without the velocity."""
+        q, S = self.configurations(np.array([t], dtype=float))
+        return q[0], float(S[0])
+
+    def configurations(self, times: Array) -> tuple[Array, Array]:
+        """The configurations ``(T, nq)`` and S ``(T,)`` of :meth:`point` at the times ``(T,)`` [s], without the
+        velocities (one compiled call for the plan's samples, however many times)."""
         motion = self._followed()
-        angles = self._coordinates(motion).at(t)
+        angles, S = self._coordinates(motion).sample(times)
         if self._join is not None:  # a late plan joined to the arm (follow()): the offset, fading
             start, offset = self._join
-            u, _ = self._fade(t, start)
-            angles = angles + (1.0 - u * u * (3.0 - 2.0 * u)) * offset
-        q = angles if self.robot.joints.vector_space else self.robot.configuration_from_angles(angles)
-        S = float(np.interp(t, motion.times, motion.S)) if motion.times.size else float("nan")
+            for row, t in zip(angles, times.tolist(), strict=True):
+                u, _ = self._fade(t, start)
+                row += (1.0 - u * u * (3.0 - 2.0 * u)) * offset
+        q = angles if self.robot.joints.vector_space else self.robot.configurations_from_angles(angles)
         return q, S
 
     def _followed(self) -> ReachMotion:

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -59,13 +60,15 @@ class ReachMotion:
 
     def at(self, t: float) -> Array:
         """Configuration [rad] at time ``t`` [s], linear between samples, held outside."""
-        times = self.times
-        t = min(max(float(t), times[0]), times[-1])
-        k = int(np.searchsorted(times, t, side="right")) - 1  # times[k] <= t < times[k + 1]
-        if k == times.size - 1 or t == times[k]:
-            return self.q[k].copy()
-        # np.interp's arithmetic for every joint at once (one call instead of one per joint; the same bits)
-        return np.asarray((self.q[k + 1] - self.q[k]) / (times[k + 1] - times[k]) * (t - times[k]) + self.q[k])
+        return self.sample(np.array([t], dtype=float))[0][0]
+
+    def sample(self, times: Array) -> tuple[Array, Array]:
+        """Configurations ``(T, n)`` [rad] and S ``(T,)`` at the times ``(T,)`` [s]: linear between samples, held
+        outside (S as ``np.interp`` takes it). One compiled call for all the times (a loop's plan points each cycle)."""
+        query = np.asarray(times, dtype=float).reshape(-1)
+        q, S = np.empty((query.size, self.q.shape[1])), np.empty(query.size)
+        _sample(self.times, self.q, self.S, query, q, S)
+        return q, S
 
     def velocity(self, t: float) -> Array:
         """Joint velocity [rad/s] of the linear interpolation at ``t`` [s] (0 outside the motion)."""
@@ -73,6 +76,52 @@ class ReachMotion:
             return np.zeros(self.q.shape[1])
         k = min(max(int(np.searchsorted(self.times, t, side="right")) - 1, 0), self.times.size - 2)
         return np.asarray((self.q[k + 1] - self.q[k]) / (self.times[k + 1] - self.times[k]), dtype=float)
+
+
+@numba.njit(cache=True, nogil=True)
+def _sample(times: Array, q: Array, S: Array, query: Array, out_q: Array, out_S: Array) -> None:  # pragma: no cover
+    """:meth:`ReachMotion.sample` into ``out_q`` and ``out_S``, compiled; numpy's operations in numpy's order, so the
+    bits of the numpy expressions it replaced (a test checks them against ``np.interp`` and the row arithmetic)."""
+    last = times.size - 1
+    for i in range(query.size):
+        t = held = query[i]
+        if times[0] > held:  # min(max(t, times[0]), times[-1]) as Python's builtins take it
+            held = times[0]
+        if times[last] < held:
+            held = times[last]
+        k = np.searchsorted(times, held, side="right") - 1  # times[k] <= t < times[k + 1]
+        if k == last or held == times[k]:
+            out_q[i] = q[k]
+        else:
+            step, gone = times[k + 1] - times[k], held - times[k]
+            for j in range(q.shape[1]):
+                out_q[i, j] = (q[k + 1, j] - q[k, j]) / step * gone + q[k, j]
+        out_S[i] = _interp(t, times, S)
+
+
+@numba.njit(cache=True, nogil=True)
+def _interp(x: float, xp: Array, fp: Array) -> float:  # pragma: no cover - compiled
+    """``np.interp(x, xp, fp)`` for one ``x``, with numpy's arithmetic and its special cases (held outside, a sample's
+    own value at its time, NaN slopes retried from the right)."""
+    n = xp.size
+    if n == 1:
+        return fp[0]
+    if x != x:
+        return x
+    j = np.searchsorted(xp, x, side="right") - 1
+    if j < 0:
+        return fp[0]
+    if j >= n - 1:
+        return fp[n - 1]
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    y = slope * (x - xp[j]) + fp[j]
+    if y != y:
+        y = slope * (x - xp[j + 1]) + fp[j + 1]
+        if y != y and fp[j] == fp[j + 1]:
+            y = fp[j]
+    return y
 
 
 @dataclass(frozen=True)
