@@ -27,6 +27,7 @@ import contextlib
 import multiprocessing
 import os
 import pickle
+import select
 import signal
 import time
 import weakref
@@ -91,6 +92,7 @@ class PlanningWorker:
         # perf_counter [s] of the state in flight, None when the worker is idle; its start counts as one (it answers
         # None once its parts are built), so its first state is the freshest one then, not the first one posted
         self._sent_at: float | None = time.perf_counter()
+        self._readable = _poller(self._conn)
         self._finalizer = weakref.finalize(self, _stop, self._process, self._conn)
 
     def post(self, q: Array, t: float, news: Any = None) -> None:
@@ -118,7 +120,7 @@ class PlanningWorker:
             self.error = self.error or PlanningWorkerError(f"the planning worker (pid {self.pid}) was closed")
             return answers
         try:
-            if self._sent_at is not None and self._conn.poll():
+            if self._sent_at is not None and self._has_message():
                 self._last_answer = self._conn.recv_bytes()
                 answer = pickle.loads(self._last_answer)
                 self._sent_at = None
@@ -151,7 +153,12 @@ class PlanningWorker:
         if self._last_answer is not None:
             pickle.loads(self._last_answer)
         with contextlib.suppress(OSError):
-            self._conn.poll()
+            self._has_message()
+
+    def _has_message(self) -> bool:
+        """Whether the worker's pipe holds a message or its end (a closed pipe): one ``poll(0)`` on a poller made
+        once, where ``Connection.poll()`` makes a selector per call (3 µs warm, 20 µs at the loop's median)."""
+        return bool(self._readable.poll(0)) if self._readable is not None else self._conn.poll()
 
     def _start_hint(self) -> str:
         """Why a worker that exits before it is ready most often does: its spawn imports the main script again."""
@@ -168,6 +175,15 @@ class PlanningWorker:
     def close(self) -> None:
         """Stop the worker (a request, then SIGTERM, then SIGKILL, :data:`GRACE` apart) and reap it; idempotent."""
         self._finalizer()
+
+
+def _poller(conn: Connection) -> select.poll | None:
+    """A poller of ``conn``'s input, or ``None`` where the OS has no ``poll`` (Windows: ``Connection.poll`` then)."""
+    if not hasattr(select, "poll"):
+        return None
+    poller = select.poll()
+    poller.register(conn.fileno(), select.POLLIN)
+    return poller
 
 
 def _stop(process: BaseProcess, conn: Connection) -> None:
