@@ -152,7 +152,7 @@ class Clearance:
         self._margins_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
         self.data = self.geometry.createData()
-        for request in self.data.distanceRequests:  # no warm start: results must not depend on call order
+        for request in self.data.distanceRequests:  # GJK from a fixed guess (see the note on SelfClearance's)
             request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
             with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
                 warnings.simplefilter("ignore", DeprecationWarning)
