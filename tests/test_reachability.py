@@ -19,7 +19,7 @@ from previewctl.control.factory import make_controller
 from previewctl.control.laws import Horizon
 from previewctl.control.params import ControllerParams
 from previewctl.control.planner import ORACLE_OPTIONS, PlanTiming
-from previewctl.errors import ConfigurationError, ParameterError
+from previewctl.errors import ConfigurationError, ParameterError, TrajectoryError
 from previewctl.index.evaluator import Evaluator
 from previewctl.index.load import load_robot, shipped_robots_dir
 from previewctl.kinematics import integrate
@@ -746,6 +746,15 @@ def test_two_or_more_bits_matches_a_popcount_on_every_bit_position() -> None:
     F = np.array(values, dtype=np.uint64)
     expected = [bin(v).count("1") >= 2 for v in values]
     assert two_or_more(F).tolist() == expected and sum(expected) > 200 and not any(two_or_more(F[1:65]))
+
+
+@pytest.mark.parametrize(("times", "rows", "S"), [(0, 0, 0), (3, 2, 3), (3, 3, 2)])
+def test_a_motion_without_one_sample_per_time_is_refused(times: int, rows: int, S: int) -> None:
+    """The compiled sampling reads one row of q and one S per time, and at least one: anything else is refused when
+    the motion is made, naming the shapes."""
+    ints = np.zeros(times, dtype=np.int64)
+    with pytest.raises(TrajectoryError, match=rf"got {times} times, q of shape \({rows}, 7\), S of shape \({S},\)"):
+        ReachMotion(np.arange(float(times)), np.zeros((rows, 7)), np.zeros(S), ints, ints, 0.0, 0.0)
 
 
 def test_motion_sample_is_np_interp_bit_for_bit() -> None:

@@ -11,6 +11,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from previewctl.errors import TrajectoryError
 from previewctl.search.reachability.options import ReachOptions
 from previewctl.types import Array, BoolArray, IntArray
 
@@ -38,6 +39,13 @@ class ReachMotion:
     cells: IntArray
     min_S: float  # noqa: N815 -- the paper's symbol S
     total_S: float  # noqa: N815 -- the paper's symbol S
+
+    def __post_init__(self) -> None:
+        """Refuse a motion that :meth:`sample`'s compiled loop could not read: no sample, or a row count of ``q``
+        or ``S`` that is not the number of times."""
+        if not self.times.size or self.q.shape[0] != self.times.size or self.S.shape != self.times.shape:
+            raise TrajectoryError(f"a motion needs at least one sample and one row of q and one S per time: got "
+                                  f"{self.times.size} times, q of shape {self.q.shape}, S of shape {self.S.shape}")
 
     def to_json(self) -> dict[str, Any]:
         """The motion as strict JSON values: finite floats (``json`` writes them so that they read back exactly),
