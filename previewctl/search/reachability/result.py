@@ -88,22 +88,16 @@ class ReachMotion:
 
 @numba.njit(cache=True, nogil=True)
 def _sample(times: Array, q: Array, S: Array, query: Array, out_q: Array, out_S: Array) -> None:  # pragma: no cover
-    """:meth:`ReachMotion.sample` into ``out_q`` and ``out_S``, compiled; numpy's operations in numpy's order, so the
-    bits of the numpy expressions it replaced (a test checks them against ``np.interp`` and the row arithmetic)."""
-    last = times.size - 1
+    """:meth:`ReachMotion.sample` into ``out_q`` and ``out_S``, compiled: each joint as ``np.interp`` takes it at the
+    time held within the motion, S at the time itself (the same bits; a test checks them against ``np.interp``)."""
     for i in range(query.size):
         t = held = query[i]
         if times[0] > held:  # min(max(t, times[0]), times[-1]) as Python's builtins take it
             held = times[0]
-        if times[last] < held:
-            held = times[last]
-        k = np.searchsorted(times, held, side="right") - 1  # times[k] <= t < times[k + 1]
-        if k == last or held == times[k]:
-            out_q[i] = q[k]
-        else:
-            step, gone = times[k + 1] - times[k], held - times[k]
-            for j in range(q.shape[1]):
-                out_q[i, j] = (q[k + 1, j] - q[k, j]) / step * gone + q[k, j]
+        if times[-1] < held:
+            held = times[-1]
+        for j in range(q.shape[1]):
+            out_q[i, j] = _interp(held, times, q[:, j])
         out_S[i] = _interp(t, times, S)
 
 
