@@ -17,7 +17,6 @@ points lie on the inflated surface.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import coal
@@ -28,7 +27,7 @@ from previewctl.errors import SceneError
 from previewctl.robot.geometry import enclosing_capsule
 from previewctl.robot.model import Robot
 from previewctl.scene.motion import Static, Uncertain, margin_at, planar_fields
-from previewctl.scene.self_clearance import BOUND_SLACK, SelfClearance, SelfWitnesses, cover_points
+from previewctl.scene.self_clearance import BOUND_SLACK, SelfClearance, SelfWitnesses, cover_points, geometry_data
 from previewctl.scene.shapes import Scene
 from previewctl.scene.solid import SolidMesh
 from previewctl.types import Array, IntArray
@@ -151,12 +150,7 @@ class Clearance:
                                            ]).reshape(-1, 3)  # (O, 3): the moving obstacles' rows follow set_time
         self._margins_at(0.0)
         self._own = model.createData()  # for screened batches, placed from q
-        self.data = self.geometry.createData()
-        for request in self.data.distanceRequests:  # GJK from a fixed guess (see the note on SelfClearance's)
-            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
-            with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
-                warnings.simplefilter("ignore", DeprecationWarning)
-                request.enable_cached_gjk_guess = False
+        self.data = geometry_data(self.geometry)
         self._results = list(self.data.distanceResults)  # element references: no lookup per read
         self._solid_of = {pair: (solid, g, o) for pair, solid, g, o in self._solid_pairs}
         self._time = 0.0

@@ -73,6 +73,26 @@ class SelfWitnesses:
     joint_b: IntArray
 
 
+def geometry_data(geometry: pin.GeometryModel, signed: bool = True) -> pin.GeometryData:
+    """A workspace of ``geometry`` whose distance requests start GJK from a fixed guess, not the pair's last result;
+    ``signed=False`` skips the penetration depth. The obstacle pairs (:class:`~previewctl.scene.clearance.Clearance`)
+    and the self pairs use it.
+
+    Coal 3 still starts the support function of a convex hull of more than 32 vertices (a hill climb) from the vertex
+    the pair's previous call ended on, whatever the request says. So such a pair's distance can differ in its last
+    bits with what the pair computed before (the xArm7's obstacle pairs, 3,000 random configurations computed twice:
+    4 changed, by up to 1.6e-7 m, GJK's tolerance); the same calls in the same order give the same bits. Primitive
+    shapes and smaller hulls are searched from scratch each call."""
+    data = geometry.createData()
+    for request in data.distanceRequests:
+        request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+        request.enable_signed_distance = signed
+        with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
+            warnings.simplefilter("ignore", DeprecationWarning)
+            request.enable_cached_gjk_guess = False
+    return data
+
+
 class SelfClearance:
     """Distances between the self pairs of ``robot`` (``P = len(robot.self_pairs)`` geometry pairs).
 
@@ -119,31 +139,13 @@ class SelfClearance:
         self._dop_support = np.array(supports).reshape(-1, len(_DIRECTIONS))[dop]
         self._capsule_ends = np.array(ends).reshape(-1, 2, 3)[capsule]
         self._capsule_radius = capsule_radius[capsule] + BOUND_SLACK
-        self.data = self._geometry_data(signed=True)
+        self.data = geometry_data(self.geometry, signed=True)
         self._results = list(self.data.distanceResults)
-        self._batch = self._geometry_data(signed=False)
+        self._batch = geometry_data(self.geometry, signed=False)
         self._own = robot.model.createData()  # for configurations given as q
         self._reader: tuple[pin.Data, list[pin.SE3]] | None = None
         self._none, self._no_points = np.zeros(0), np.zeros((0, 3))  # read only: the witnesses of no pair
         self._none.flags.writeable = self._no_points.flags.writeable = False
-
-    def _geometry_data(self, signed: bool) -> pin.GeometryData:
-        """Workspace of :attr:`geometry`, GJK started from a fixed guess, not the pair's last result; ``signed=False``
-        skips the penetration depth.
-
-        Coal 3 still starts the support function of a convex hull of more than 32 vertices (a hill climb) from the
-        vertex the pair's previous call ended on, whatever the request says. So such a pair's distance can differ in
-        its last bits with what the pair computed before (the xArm7's obstacle pairs, 3,000 random configurations
-        computed twice: 4 changed, by up to 1.6e-7 m, GJK's tolerance); the same calls in the same order give the
-        same bits. Primitive shapes and smaller hulls are searched from scratch each call."""
-        data = self.geometry.createData()
-        for request in data.distanceRequests:
-            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
-            request.enable_signed_distance = signed
-            with warnings.catch_warnings():  # deprecated in Coal 3, but still the switch that stops the cache
-                warnings.simplefilter("ignore", DeprecationWarning)
-                request.enable_cached_gjk_guess = False
-        return data
 
     def __len__(self) -> int:
         return int(self._a.size)
